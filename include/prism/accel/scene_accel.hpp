@@ -1,0 +1,206 @@
+// prism/accel/scene_accel.hpp — two-level ray queries: one BVH per triangle mesh
+// in its object space, one BVH over instances (a mesh under a transform, or a
+// sphere). A mesh used by many instances is stored and built once.
+#pragma once
+#include <optional>
+#include <vector>
+#include "prism/accel/bvh.hpp"
+#include "prism/geometry/sphere.hpp"
+#include "prism/geometry/triangle.hpp"
+
+namespace prism {
+
+// A mesh's BVH with its triangles' vertices copied into leaf order, so that a
+// leaf's triangles are contiguous in memory and need no index lookups.
+class MeshAccel {
+ public:
+  MeshAccel() = default;
+  MeshAccel(const TriangleMesh& mesh, const BVHBuildOptions& opt) {
+    size_t n = mesh.triangle_count();
+    std::vector<Bounds3f> b(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Point3f& p0 = mesh.positions[mesh.indices[3 * i]];
+      b[i] = union_bounds(union_bounds(Bounds3f(p0), mesh.positions[mesh.indices[3 * i + 1]]),
+                          mesh.positions[mesh.indices[3 * i + 2]]);
+    }
+    m_bvh = BVH::build(b, opt);
+    m_verts.resize(3 * n);
+    for (size_t k = 0; k < n; ++k) {
+      uint32_t t = m_bvh.prims()[k];
+      for (int j = 0; j < 3; ++j) m_verts[3 * k + size_t(j)] = mesh.positions[mesh.indices[3 * t + size_t(j)]];
+    }
+  }
+
+  const BVH& bvh() const { return m_bvh; }
+  Bounds3f bounds() const { return m_bvh.bounds(); }
+
+  // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
+  // (the triangle's index in the mesh).
+  bool intersect(const Point3f& o, const Vector3f& d, Float* t_max, TriangleHit* hit, uint32_t* tri) const {
+    RayTrianglePrecomp pc(d);
+    uint32_t best = 0;
+    bool found = m_bvh.intersect(o, d, *t_max, [&](uint32_t k, Float& tm) {
+      auto h = intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]);
+      if (!h) return false;
+      tm = h->t;
+      *hit = *h;
+      best = k;
+      return true;
+    });
+    if (found) *tri = m_bvh.prims()[best];
+    return found;
+  }
+  // Any hit before t_max, ignoring triangle `skip` (mesh index) if given.
+  bool occluded(const Point3f& o, const Vector3f& d, Float t_max, uint32_t skip = UINT32_MAX) const {
+    RayTrianglePrecomp pc(d);
+    return m_bvh.occluded(o, d, t_max, [&](uint32_t k, Float tm) {
+      if (skip != UINT32_MAX && m_bvh.prims()[k] == skip) return false;
+      return intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]).has_value();
+    });
+  }
+
+ private:
+  BVH m_bvh;
+  std::vector<Point3f> m_verts;
+};
+
+struct Instance {
+  enum class Kind : uint8_t { mesh, sphere };
+  Kind kind = Kind::mesh;
+  uint32_t geometry = 0;      // mesh or sphere index
+  Transform object_to_world;  // meshes only; spheres live in world space
+  bool identity = true;
+};
+
+struct Hit {
+  Float t = infinity;
+  Float b0 = 0, b1 = 0, b2 = 0;  // triangle barycentrics (unused for spheres)
+  uint32_t instance = 0, primitive = 0;
+};
+
+class SceneAccel {
+ public:
+  uint32_t add_mesh(TriangleMesh mesh) {
+    m_meshes.push_back(std::move(mesh));
+    return uint32_t(m_meshes.size() - 1);
+  }
+  uint32_t add_mesh_instance(uint32_t mesh, const Transform& object_to_world = {}) {
+    m_instances.push_back({Instance::Kind::mesh, mesh, object_to_world, object_to_world.is_identity()});
+    return uint32_t(m_instances.size() - 1);
+  }
+  uint32_t add_sphere(const Sphere& s) {
+    m_spheres.push_back(s);
+    m_instances.push_back({Instance::Kind::sphere, uint32_t(m_spheres.size() - 1), {}, true});
+    return uint32_t(m_instances.size() - 1);
+  }
+
+  const std::vector<TriangleMesh>& meshes() const { return m_meshes; }
+  const std::vector<Sphere>& spheres() const { return m_spheres; }
+  const std::vector<Instance>& instances() const { return m_instances; }
+  const std::vector<MeshAccel>& mesh_accels() const { return m_mesh_accels; }
+  Bounds3f bounds() const { return m_top.bounds(); }
+
+  void build(const BVHBuildOptions& opt = {}) {
+    m_mesh_accels.clear();
+    m_mesh_accels.reserve(m_meshes.size());
+    for (const auto& m : m_meshes) m_mesh_accels.emplace_back(m, opt);
+    std::vector<Bounds3f> b(m_instances.size());
+    for (size_t i = 0; i < m_instances.size(); ++i) {
+      const Instance& in = m_instances[i];
+      if (in.kind == Instance::Kind::sphere)
+        b[i] = m_spheres[in.geometry].bounds();
+      else
+        b[i] = in.identity ? m_mesh_accels[in.geometry].bounds() : in.object_to_world(m_mesh_accels[in.geometry].bounds());
+    }
+    BVHBuildOptions top = opt;
+    top.max_leaf_size = 1;
+    m_top = BVH::build(b, top);
+  }
+
+  std::optional<Hit> intersect(const Ray& ray, Float t_max = infinity) const {
+    Hit best;
+    bool found = m_top.intersect(ray.o, ray.d, t_max, [&](uint32_t k, Float& tm) {
+      uint32_t inst_id = m_top.prims()[k];
+      const Instance& in = m_instances[inst_id];
+      if (in.kind == Instance::Kind::sphere) {
+        auto h = intersect_sphere(m_spheres[in.geometry], ray, tm);
+        if (!h) return false;
+        tm = h->t;
+        best = {h->t, 0, 0, 0, inst_id, 0};
+        return true;
+      }
+      TriangleHit th;
+      uint32_t tri;
+      Float t_local = tm;
+      bool h;
+      if (in.identity) {
+        h = m_mesh_accels[in.geometry].intersect(ray.o, ray.d, &t_local, &th, &tri);
+      } else {
+        Float dt;
+        Ray r = transform_ray(inverse(in.object_to_world), ray, &dt);
+        Float t_obj = tm - dt;
+        h = m_mesh_accels[in.geometry].intersect(r.o, r.d, &t_obj, &th, &tri);
+        t_local = t_obj + dt;
+      }
+      if (!h) return false;
+      tm = t_local;
+      best = {t_local, th.b0, th.b1, th.b2, inst_id, tri};
+      return true;
+    });
+    if (!found) return std::nullopt;
+    return best;
+  }
+
+  // True if anything lies along the ray before t_max. A hit on (skip_instance,
+  // skip_primitive) is ignored: shadow rays pass their target's own surface.
+  bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
+                uint32_t skip_primitive = UINT32_MAX) const {
+    return m_top.occluded(ray.o, ray.d, t_max, [&](uint32_t k, Float tm) {
+      uint32_t inst_id = m_top.prims()[k];
+      const Instance& in = m_instances[inst_id];
+      if (in.kind == Instance::Kind::sphere) {
+        if (inst_id == skip_instance) return false;
+        return intersect_sphere(m_spheres[in.geometry], ray, tm).has_value();
+      }
+      uint32_t skip = inst_id == skip_instance ? skip_primitive : UINT32_MAX;
+      if (in.identity) return m_mesh_accels[in.geometry].occluded(ray.o, ray.d, tm, skip);
+      Float dt;
+      Ray r = transform_ray(inverse(in.object_to_world), ray, &dt);
+      return m_mesh_accels[in.geometry].occluded(r.o, r.d, tm - dt, skip);
+    });
+  }
+
+  // The full surface description of a hit, in world space.
+  SurfaceInteraction interaction(const Ray& ray, const Hit& h) const {
+    SurfaceInteraction si;
+    const Instance& in = m_instances[h.instance];
+    si.instance = h.instance;
+    si.primitive = h.primitive;
+    si.time = ray.time;
+    si.wo = normalize(-ray.d);
+    if (in.kind == Instance::Kind::sphere) {
+      sphere_interaction(m_spheres[in.geometry], ray, SphereHit{h.t}, &si);
+      return si;
+    }
+    triangle_interaction(m_meshes[in.geometry], h.primitive, TriangleHit{h.t, h.b0, h.b1, h.b2}, &si);
+    if (!in.identity) {
+      const Transform& t = in.object_to_world;
+      Vector3f err;
+      si.p = t.apply(si.p, si.p_error, &err);
+      si.p_error = err;
+      si.n = normalize(t(si.n));
+      si.ns = normalize(t(si.ns));
+      si.dpdu = t(si.dpdu);
+    }
+    return si;
+  }
+
+ private:
+  std::vector<TriangleMesh> m_meshes;
+  std::vector<MeshAccel> m_mesh_accels;
+  std::vector<Sphere> m_spheres;
+  std::vector<Instance> m_instances;
+  BVH m_top;
+};
+
+}  // namespace prism

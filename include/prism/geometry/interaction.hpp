@@ -1,0 +1,42 @@
+// prism/geometry/interaction.hpp — what a ray hit: the point with its
+// conservative error bound, the geometric normal, the shading frame, uv, and the
+// ids of what was hit. Rays spawned from it start outside the error bound.
+#pragma once
+#include <cstdint>
+#include "prism/geometry/ray.hpp"
+
+namespace prism {
+
+struct SurfaceInteraction {
+  Point3f p;
+  Vector3f p_error;   // |p - exact point| <= p_error, per component
+  Normal3f n;         // unit geometric normal (oriented by winding or outwards)
+  Normal3f ns;        // unit shading normal, in the hemisphere of n
+  Vector3f dpdu;      // surface tangent, used to orient the shading frame
+  Point2f uv;
+  Vector3f wo;        // unit direction back along the incoming ray
+  Float time = 0;
+  int32_t material = -1;    // index into the scene's materials
+  int32_t area_light = -1;  // index into the scene's lights, -1 if not emissive
+  uint32_t instance = 0, primitive = 0;
+
+  Point3f spawn_origin(const Vector3f& w) const { return offset_ray_origin(p, p_error, n, w); }
+  Ray spawn_ray(const Vector3f& d) const { return {spawn_origin(d), d, time}; }
+  // A ray towards p_to (itself already offset off its own surface); it reaches
+  // p_to at t = 1.
+  Ray spawn_ray_to(const Point3f& p_to) const {
+    Point3f o = spawn_origin(p_to - p);
+    return {o, p_to - o, time};
+  }
+  // Shading frame: z = shading normal, x along the tangent (Gram-Schmidt).
+  Frame shading_frame() const {
+    Vector3f z(ns);
+    Vector3f x = dpdu - z * dot(dpdu, z);
+    Float l2 = length_squared(x);
+    if (!(l2 > 0) || !std::isfinite(l2)) return Frame::from_z(z);
+    x = x / std::sqrt(l2);
+    return Frame::from_xz(x, z);
+  }
+};
+
+}  // namespace prism
