@@ -180,12 +180,13 @@ inline Transform rotate(Float theta, const Vector3f& axis) {
   m.m[2][2] = a.z * a.z + (1 - a.z * a.z) * c;
   return {m, m.transpose()};
 }
-// Camera-to-world transform of a camera at `eye` looking at `target`; the
-// camera looks along +z in its own space, +y up.
+// Camera-to-world transform of a camera at `eye` looking at `target`. Camera
+// space has +x to the image's right, +y up and +z forward, so that a world
+// seen through it is not mirrored.
 inline Transform look_at_camera_to_world(const Point3f& eye, const Point3f& target, const Vector3f& up) {
   Vector3f dir = normalize(target - eye);
-  Vector3f right = normalize(cross(normalize(up), dir));
-  Vector3f new_up = cross(dir, right);
+  Vector3f right = normalize(cross(dir, normalize(up)));
+  Vector3f new_up = cross(right, dir);
   Matrix4 m;
   for (int i = 0; i < 3; ++i) {
     m.m[i][0] = right[i];

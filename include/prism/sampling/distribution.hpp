@@ -83,7 +83,7 @@ class PiecewiseConstant2D {
   PiecewiseConstant2D(std::span<const Float> f, int nu, int nv) {
     m_conditional.reserve(size_t(nv));
     for (int v = 0; v < nv; ++v) m_conditional.emplace_back(f.subspan(size_t(v) * size_t(nu), size_t(nu)));
-    std::vector<Float> marginal(size_t(nv));
+    std::vector<Float> marginal(static_cast<size_t>(nv));
     for (int v = 0; v < nv; ++v) marginal[size_t(v)] = m_conditional[size_t(v)].integral();
     m_marginal = PiecewiseConstant1D(marginal);
   }

@@ -1,0 +1,142 @@
+// prism-render: renders the built-in default scene (a Cornell box) to PNG, EXR
+// and/or PFM. Exit codes: 0 success, 2 bad options or unwritable output.
+#include <unistd.h>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+#include <CLI/CLI.hpp>
+#include <prism/prism.hpp>
+#include <prism/io/image_io.hpp>
+
+namespace {
+
+std::atomic<bool> g_cancel{false};
+
+int fail(const std::string& msg) {
+  std::fprintf(stderr, "prism-render: error: %s\n", msg.c_str());
+  return 2;
+}
+
+std::string lowercase_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// Checks that an output path can be written before spending time rendering.
+std::string check_output(const std::string& path) {
+  std::string ext = lowercase_extension(path);
+  if (ext != ".png" && ext != ".exr" && ext != ".pfm")
+    return "output '" + path + "': unknown format '" + ext + "' (use .png, .exr or .pfm)";
+  std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return "output '" + path + "': directory '" + dir.string() + "' does not exist";
+  if (::access(dir.c_str(), W_OK) != 0) return "output '" + path + "': directory '" + dir.string() + "' is not writable";
+  if (std::filesystem::is_directory(path, ec)) return "output '" + path + "' is a directory";
+  if (std::filesystem::exists(path, ec) && ::access(path.c_str(), W_OK) != 0)
+    return "output '" + path + "' is not writable";
+  return {};
+}
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled) : m_enabled(enabled), m_start(std::chrono::steady_clock::now()) {}
+  void update(int done, int total) {
+    if (!m_enabled) return;
+    double f = double(done) / double(total);
+    double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    double eta = f > 0 ? elapsed * (1 - f) / f : 0;
+    constexpr int width = 40;
+    int filled = int(f * width);
+    std::string bar(size_t(filled), '=');
+    if (filled < width) bar += '>' + std::string(size_t(width - filled - 1), ' ');
+    std::fprintf(stderr, "\r[%s] %3d%%  elapsed %5.1fs  ETA %5.1fs", bar.c_str(), int(f * 100), elapsed, eta);
+    if (done == total) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  }
+
+ private:
+  bool m_enabled;
+  std::chrono::steady_clock::time_point m_start;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"prism-render: physically based path tracing with prism"};
+  std::string scene_path;
+  int width = 512, height = 512, spp = 64, threads = 0, max_depth = 64;
+  uint64_t seed = 0;
+  std::vector<std::string> outputs;
+  std::string integrator = "path";
+  bool quiet = false;
+  app.add_option("scene", scene_path, "Scene file (glTF support arrives with the glTF module); default: built-in Cornell box");
+  app.add_option("--width", width, "Image width in pixels")->check(CLI::PositiveNumber);
+  app.add_option("--height", height, "Image height in pixels")->check(CLI::PositiveNumber);
+  app.add_option("--spp", spp, "Samples per pixel")->check(CLI::PositiveNumber);
+  app.add_option("--seed", seed, "Random seed");
+  app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--max-depth", max_depth, "Maximum path depth")->check(CLI::NonNegativeNumber);
+  app.add_option("--out,-o", outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
+  app.add_option("--integrator", integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
+      ->check(CLI::IsMember({"path", "bsdf"}));
+  app.add_flag("--quiet,-q", quiet, "No progress bar");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::printf("%s", app.help().c_str());
+    return 0;
+  } catch (const CLI::ParseError& e) {
+    std::string msg = e.what();
+    for (auto& c : msg)
+      if (c == '\n') c = ' ';
+    return fail(msg);
+  }
+  if (!scene_path.empty())
+    return fail("scene '" + scene_path + "': loading scene files is not supported yet (glTF loading is issue #6)");
+  if (outputs.empty()) outputs.push_back("default.png");
+  for (const auto& o : outputs)
+    if (auto err = check_output(o); !err.empty()) return fail(err);
+
+  using namespace prism;
+  Scene<RGB> scene;
+  try {
+    build_cornell_box(scene);
+    scene.build();
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
+  PerspectiveCamera camera = default_camera(width, height);
+  RGBFilm film(width, height);
+
+  std::signal(SIGINT, [](int) { g_cancel = true; });
+  ProgressBar bar(!quiet && ::isatty(STDERR_FILENO));
+  RenderOptions opt;
+  opt.spp = spp;
+  opt.seed = seed;
+  opt.threads = threads;
+  opt.cancel = &g_cancel;
+  opt.progress = [&](int done, int total) { bar.update(done, total); };
+  PathOptions popt;
+  popt.max_depth = max_depth;
+  RenderStats st = integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt)
+                                        : render(scene, camera, PathIntegrator(popt), film, opt);
+  Image img = to_image(film);
+  for (const auto& o : outputs) {
+    try {
+      write_image(o, img);
+    } catch (const Error& e) {
+      return fail(e.what());
+    }
+  }
+  int used_threads = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  std::printf("prism-render: %dx%d, %d spp, %s, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu dropped%s\n",
+              width, height, spp, integrator.c_str(), used_threads, st.seconds, double(st.samples) / st.seconds * 1e-6,
+              double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped, st.cancelled ? " (cancelled)" : "");
+  return st.cancelled ? 130 : 0;
+}

@@ -1,0 +1,76 @@
+// prism/film/film.hpp — RGB film: per pixel, the weighted sum of sample values
+// and of their squares, so that both the estimate and its variance are known.
+// Each pixel is written by one thread at a time (the tile that owns it), in a
+// fixed sample order, so the result does not depend on the thread count.
+#pragma once
+#include <vector>
+#include "prism/spectra/rgb.hpp"
+
+namespace prism {
+
+class RGBFilm {
+ public:
+  RGBFilm() = default;
+  RGBFilm(int width, int height) : m_width(width), m_height(height), m_pixels(size_t(width) * size_t(height)) {}
+
+  int width() const { return m_width; }
+  int height() const { return m_height; }
+
+  void add_sample(int x, int y, const RGB& L, Float weight) {
+    Pixel& p = m_pixels[index(x, y)];
+    for (int c = 0; c < 3; ++c) {
+      double v = double(L[c]);
+      p.sum[c] += double(weight) * v;
+      p.sum_sq[c] += double(weight) * v * v;
+    }
+    p.weight += double(weight);
+    p.count += 1;
+  }
+
+  // The pixel's estimate: sum(w L) / sum(w).
+  RGB pixel(int x, int y) const {
+    const Pixel& p = m_pixels[index(x, y)];
+    if (p.weight == 0) return {};
+    return {Float(p.sum[0] / p.weight), Float(p.sum[1] / p.weight), Float(p.sum[2] / p.weight)};
+  }
+  // Estimated variance of the pixel's estimate (the sample variance of the
+  // weighted values divided by the sample count).
+  RGB variance(int x, int y) const {
+    const Pixel& p = m_pixels[index(x, y)];
+    if (p.count < 2 || p.weight == 0) return {};
+    RGB v;
+    for (int c = 0; c < 3; ++c) {
+      double mean = p.sum[c] / p.weight;
+      double var = std::max(0.0, p.sum_sq[c] / p.weight - mean * mean) * double(p.count) / double(p.count - 1);
+      v[c] = Float(var / double(p.count));
+    }
+    return v;
+  }
+  uint64_t sample_count(int x, int y) const { return m_pixels[index(x, y)].count; }
+
+  // Linear RGB, row-major from the top-left, 3 floats per pixel.
+  std::vector<float> rgb_buffer() const {
+    std::vector<float> out(m_pixels.size() * 3);
+    for (int y = 0; y < m_height; ++y)
+      for (int x = 0; x < m_width; ++x) {
+        RGB c = pixel(x, y);
+        size_t i = index(x, y) * 3;
+        out[i] = c.r; out[i + 1] = c.g; out[i + 2] = c.b;
+      }
+    return out;
+  }
+  void clear() { std::fill(m_pixels.begin(), m_pixels.end(), Pixel{}); }
+
+ private:
+  struct Pixel {
+    double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+    double weight = 0;
+    uint64_t count = 0;
+  };
+  size_t index(int x, int y) const { return size_t(y) * size_t(m_width) + size_t(x); }
+
+  int m_width = 0, m_height = 0;
+  std::vector<Pixel> m_pixels;
+};
+
+}  // namespace prism

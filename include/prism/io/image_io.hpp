@@ -1,0 +1,129 @@
+// prism/io/image_io.hpp — writing and reading images (opt-in: link prism::io).
+// PNG: tone-mapped 8-bit sRGB through stb_image_write (exposure, clamp to
+// [0, 1], the sRGB transfer function). EXR: linear half or float RGB through
+// tinyexr. PFM: linear float RGB, bottom-to-top as the format defines.
+// Non-finite values are written as 0: an image prism writes never holds NaN/Inf.
+#pragma once
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+#include <stb/stb_image_write.h>
+#include <tinyexr.h>
+#include "prism/error.hpp"
+#include "prism/film/film.hpp"
+
+namespace prism {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // row-major from the top-left, 3 floats per pixel
+};
+
+namespace detail {
+inline float finite_or_zero(float v) { return std::isfinite(v) ? v : 0.f; }
+inline void check_image(const Image& img, const std::string& path) {
+  if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
+    throw Error(path + ": image size " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                " does not match its data");
+}
+}  // namespace detail
+
+// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
+inline float srgb_encode(float v) {
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1 / 2.4f) - 0.055f;
+}
+
+inline void write_png(const std::string& path, const Image& img, float exposure = 1) {
+  detail::check_image(img, path);
+  std::vector<unsigned char> px(img.rgb.size());
+  for (size_t i = 0; i < px.size(); ++i) {
+    float v = std::clamp(detail::finite_or_zero(img.rgb[i] * exposure), 0.f, 1.f);
+    px[i] = (unsigned char)std::lround(srgb_encode(v) * 255.f);
+  }
+  if (!stbi_write_png(path.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
+    throw Error(path + ": cannot write PNG (is the directory writable?)");
+}
+
+inline void write_exr(const std::string& path, const Image& img) {
+  detail::check_image(img, path);
+  std::vector<float> clean(img.rgb.size());
+  for (size_t i = 0; i < clean.size(); ++i) clean[i] = detail::finite_or_zero(img.rgb[i]);
+  const char* err = nullptr;
+  // save_as_fp16 = 0: full float precision.
+  int rc = SaveEXR(clean.data(), img.width, img.height, 3, 0, path.c_str(), &err);
+  if (rc != TINYEXR_SUCCESS) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    throw Error(path + ": cannot write EXR: " + msg);
+  }
+}
+
+inline Image read_exr(const std::string& path) {
+  float* data = nullptr;
+  int w = 0, h = 0;
+  const char* err = nullptr;
+  int rc = LoadEXR(&data, &w, &h, path.c_str(), &err);
+  if (rc != TINYEXR_SUCCESS) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    throw Error(path + ": cannot read EXR: " + msg);
+  }
+  Image img{w, h, std::vector<float>(size_t(w) * size_t(h) * 3)};
+  for (size_t i = 0; i < size_t(w) * size_t(h); ++i)
+    for (int c = 0; c < 3; ++c) img.rgb[3 * i + size_t(c)] = data[4 * i + size_t(c)];  // LoadEXR gives RGBA
+  std::free(data);
+  return img;
+}
+
+inline void write_pfm(const std::string& path, const Image& img) {
+  detail::check_image(img, path);
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot open for writing");
+  // A negative scale marks little-endian data.
+  f << "PF\n" << img.width << " " << img.height << "\n-1\n";
+  std::vector<float> row(size_t(img.width) * 3);
+  for (int y = img.height - 1; y >= 0; --y) {
+    for (size_t i = 0; i < row.size(); ++i) row[i] = detail::finite_or_zero(img.rgb[size_t(y) * row.size() + i]);
+    f.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(float)));
+  }
+  if (!f) throw Error(path + ": write failed");
+}
+
+inline Image read_pfm(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot open");
+  std::string magic;
+  int w = 0, h = 0;
+  double scale = 0;
+  f >> magic >> w >> h >> scale;
+  f.get();
+  if (magic != "PF" || w <= 0 || h <= 0 || scale == 0)
+    throw Error(path + ": not an RGB PFM file (header '" + magic + "')");
+  if (scale > 0) throw Error(path + ": big-endian PFM is not supported");
+  Image img{w, h, std::vector<float>(size_t(w) * size_t(h) * 3)};
+  for (int y = h - 1; y >= 0; --y)
+    f.read(reinterpret_cast<char*>(img.rgb.data() + size_t(y) * size_t(w) * 3), std::streamsize(size_t(w) * 3 * sizeof(float)));
+  if (!f) throw Error(path + ": truncated PFM data");
+  return img;
+}
+
+inline Image to_image(const RGBFilm& film) { return {film.width(), film.height(), film.rgb_buffer()}; }
+
+// Writes by extension: .png, .exr or .pfm.
+inline void write_image(const std::string& path, const Image& img) {
+  auto ends_with = [&](const char* ext) {
+    std::string e(ext);
+    if (path.size() < e.size()) return false;
+    std::string tail = path.substr(path.size() - e.size());
+    for (auto& c : tail) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return tail == e;
+  };
+  if (ends_with(".png")) return write_png(path, img);
+  if (ends_with(".exr")) return write_exr(path, img);
+  if (ends_with(".pfm")) return write_pfm(path, img);
+  throw Error(path + ": unknown image format (use .png, .exr or .pfm)");
+}
+
+}  // namespace prism

@@ -1,0 +1,181 @@
+// prism/lights/area.hpp — diffuse area lights on triangles and spheres, emitting
+// a constant radiance Le from their front side (or both sides).
+// Triangles are sampled uniformly by area, spheres by the cone of directions
+// they subtend when the receiver is outside (pbrt-v4 book, section 6.2.4) and
+// by area otherwise; sample_li converts area densities to solid angle.
+#pragma once
+#include "prism/geometry/sphere.hpp"
+#include "prism/lights/light.hpp"
+#include "prism/sampling/warps.hpp"
+
+namespace prism {
+
+struct AreaEmission {
+  RGB radiance{1};
+  Float scale = 1;
+  bool two_sided = false;
+};
+
+template <class S>
+class TriangleAreaLight {
+ public:
+  // p0, p1, p2 in world space; the front side is that of (p1 - p0) x (p2 - p0).
+  TriangleAreaLight(const Point3f& p0, const Point3f& p1, const Point3f& p2, const AreaEmission& e, uint32_t instance,
+                    uint32_t primitive)
+      : m_p{p0, p1, p2}, m_emission(e), m_instance(instance), m_primitive(primitive) {
+    Vector3f c = cross(p1 - p0, p2 - p0);
+    m_area = length(c) / 2;
+    m_n = Normal3f(normalize(c));
+  }
+
+  LightKind kind() const { return LightKind::area; }
+  Float area() const { return m_area; }
+
+  // Radiance leaving the light at a point with geometric normal n towards w.
+  template <class W>
+  S L(const Normal3f& /*n*/, const Vector3f& w, const W& lambda) const {
+    if (!m_emission.two_sided && dot(m_n, w) < 0) return S{};
+    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+  }
+
+  template <class W>
+  std::optional<LightLiSample<S>> sample_li(const LightSampleContext& ctx, Point2f u, const W& lambda) const {
+    auto b = sample_uniform_triangle(u);
+    Vector3f v0(m_p[0]), v1(m_p[1]), v2(m_p[2]);
+    Point3f p(v0 * b[0] + v1 * b[1] + v2 * b[2]);
+    Vector3f p_err = (abs(v0 * b[0]) + abs(v1 * b[1]) + abs(v2 * b[2])) * gamma(6);
+    Vector3f to_light = p - ctx.p;
+    Float d2 = length_squared(to_light);
+    if (!(d2 > 0)) return std::nullopt;
+    Vector3f wi = to_light / std::sqrt(d2);
+    Float cos_l = std::abs(dot(m_n, wi));
+    if (cos_l == 0) return std::nullopt;
+    S Le = L(m_n, -wi, lambda);
+    if (Le.is_black()) return std::nullopt;
+    Float pdf = d2 / (cos_l * m_area);
+    if (!std::isfinite(pdf)) return std::nullopt;
+    Point3f p_off = offset_ray_origin(p, p_err, m_n, -wi);
+    return LightLiSample<S>{Le, wi, pdf, p_off, false, m_instance, m_primitive};
+  }
+
+  // Solid-angle density of sample_li producing direction wi hitting this light at si.
+  Float pdf_li(const LightSampleContext& ctx, const Vector3f& wi, const SurfaceInteraction& si) const {
+    Float cos_l = std::abs(dot(m_n, wi));
+    if (cos_l == 0) return 0;
+    return distance_squared(ctx.p, si.p) / (cos_l * m_area);
+  }
+
+  template <class W>
+  S power(const W& lambda) const {
+    Float sides = m_emission.two_sided ? 2 : 1;
+    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda) * (pi * sides * m_area);
+  }
+
+ private:
+  Point3f m_p[3];
+  Normal3f m_n;
+  Float m_area = 0;
+  AreaEmission m_emission;
+  uint32_t m_instance, m_primitive;
+};
+
+template <class S>
+class SphereAreaLight {
+ public:
+  // The front side of a sphere is its outside.
+  SphereAreaLight(const Sphere& s, const AreaEmission& e, uint32_t instance)
+      : m_sphere(s), m_emission(e), m_instance(instance) {}
+
+  LightKind kind() const { return LightKind::area; }
+
+  template <class W>
+  S L(const Normal3f& n, const Vector3f& w, const W& lambda) const {
+    if (!m_emission.two_sided && dot(n, w) < 0) return S{};
+    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+  }
+
+  template <class W>
+  std::optional<LightLiSample<S>> sample_li(const LightSampleContext& ctx, Point2f u, const W& lambda) const {
+    const Point3f& c = m_sphere.center;
+    Float r = m_sphere.radius;
+    Float dc2 = distance_squared(ctx.p, c);
+    Point3f p;
+    Normal3f n;
+    Float pdf;
+    if (dc2 <= r * r) {
+      // Inside: uniform by area, converted to solid angle.
+      Vector3f nv = sample_uniform_sphere(u);
+      p = c + nv * r;
+      n = Normal3f(nv);
+      Vector3f wi = p - ctx.p;
+      Float d2 = length_squared(wi);
+      if (!(d2 > 0)) return std::nullopt;
+      wi = wi / std::sqrt(d2);
+      Float cos_l = std::abs(dot(n, wi));
+      if (cos_l == 0) return std::nullopt;
+      pdf = d2 / (cos_l * m_sphere.area());
+    } else {
+      // Outside: uniform in the cone subtended by the sphere; find the point
+      // on the sphere from the angle alpha at its centre.
+      Float dc = std::sqrt(dc2);
+      Vector3f wc = (c - ctx.p) / dc;
+      Float sin2_max = r * r / dc2;
+      Float sin_max = std::sqrt(sin2_max);
+      Float cos_max = safe_sqrt(1 - sin2_max);
+      Float one_minus_cos_max = 1 - cos_max;
+      Float cos_theta = (cos_max - 1) * u.x + 1;
+      Float sin2_theta = 1 - sqr(cos_theta);
+      // For tiny cones 1 - cos_max cancels catastrophically: use its Taylor
+      // expansion, exact to float precision below sin^2 = 0.00068523
+      // (1.5 degrees), as pbrt-v4 does.
+      if (sin2_max < 0.00068523f) {
+        sin2_theta = sin2_max * u.x;
+        cos_theta = std::sqrt(1 - sin2_theta);
+        one_minus_cos_max = sin2_max / 2;
+      }
+      Float cos_alpha = sin2_theta / sin_max + cos_theta * safe_sqrt(1 - sin2_theta / sin2_max);
+      Float sin_alpha = safe_sqrt(1 - sqr(cos_alpha));
+      Float phi = u.y * 2 * pi;
+      Vector3f w = spherical_direction(sin_alpha, cos_alpha, phi);
+      Frame f = Frame::from_z(-wc);
+      Vector3f nv = f.from_local(w);
+      n = Normal3f(nv);
+      p = c + nv * r;
+      pdf = 1 / (2 * pi * one_minus_cos_max);
+    }
+    Vector3f p_err = abs(p - Point3f{}) * gamma(5);
+    Vector3f wi = normalize(p - ctx.p);
+    S Le = L(n, -wi, lambda);
+    if (Le.is_black() || !std::isfinite(pdf)) return std::nullopt;
+    Point3f p_off = offset_ray_origin(p, p_err, n, -wi);
+    return LightLiSample<S>{Le, wi, pdf, p_off, false, m_instance, 0};
+  }
+
+  Float pdf_li(const LightSampleContext& ctx, const Vector3f& wi, const SurfaceInteraction& si) const {
+    const Point3f& c = m_sphere.center;
+    Float r = m_sphere.radius;
+    Float dc2 = distance_squared(ctx.p, c);
+    if (dc2 <= r * r) {
+      Float cos_l = std::abs(dot(si.n, wi));
+      if (cos_l == 0) return 0;
+      return distance_squared(ctx.p, si.p) / (cos_l * m_sphere.area());
+    }
+    Float sin2_max = r * r / dc2;
+    Float one_minus_cos_max = sin2_max < 0.00068523f ? sin2_max / 2 : 1 - safe_sqrt(1 - sin2_max);
+    return 1 / (2 * pi * one_minus_cos_max);
+  }
+
+  template <class W>
+  S power(const W& lambda) const {
+    Float sides = m_emission.two_sided ? 2 : 1;
+    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda) *
+           (pi * sides * m_sphere.area());
+  }
+
+ private:
+  Sphere m_sphere;
+  AreaEmission m_emission;
+  uint32_t m_instance;
+};
+
+}  // namespace prism

@@ -1,0 +1,113 @@
+// prism/render/render.hpp — the parallel tile driver. The image is cut into
+// tiles that threads take from a shared counter; each pixel belongs to one
+// tile, and its samples run in order with random numbers that depend only on
+// the pixel, the sample index and the seed. The image is therefore the same
+// whatever the thread count. A non-finite sample is dropped and counted.
+#pragma once
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+#include "prism/cameras/perspective.hpp"
+#include "prism/film/film.hpp"
+#include "prism/film/filter.hpp"
+#include "prism/integrators/path.hpp"
+#include "prism/sampling/pcg32.hpp"
+
+namespace prism {
+
+struct RenderOptions {
+  int spp = 16;
+  uint64_t seed = 0;
+  int threads = 0;       // 0 = all hardware threads
+  int tile_size = 16;
+  // Called from worker threads (serialised) after each tile: tiles done, total.
+  std::function<void(int, int)> progress;
+  const std::atomic<bool>* cancel = nullptr;  // set to stop early
+};
+
+struct RenderStats {
+  double seconds = 0;
+  uint64_t samples = 0;
+  uint64_t rays = 0;
+  uint64_t dropped = 0;  // non-finite samples, never written to the film
+  bool cancelled = false;
+};
+
+template <class Scene, class Integrator, class Filter = BoxFilter>
+RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const Integrator& integrator, RGBFilm& film,
+                   const RenderOptions& opt, const Filter& filter = Filter{}) {
+  using S = typename Scene::spectrum_type;
+  using traits = spectrum_traits<S>;
+  auto start = std::chrono::steady_clock::now();
+  const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
+  const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, tiles = tiles_x * tiles_y;
+  int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::max(1, std::min(threads, tiles));
+
+  std::atomic<int> next{0}, done{0};
+  std::atomic<uint64_t> samples{0}, rays{0}, dropped{0};
+  std::atomic<bool> cancelled{false};
+  std::mutex progress_mutex;
+
+  auto worker = [&] {
+    IndependentSampler sampler(opt.seed);
+    RayCounter counter;
+    uint64_t my_samples = 0, my_dropped = 0;
+    for (;;) {
+      if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) {
+        cancelled = true;
+        break;
+      }
+      int t = next.fetch_add(1);
+      if (t >= tiles) break;
+      int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
+      int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+          for (int s = 0; s < opt.spp; ++s) {
+            sampler.start_pixel_sample(x, y, s);
+            // Fixed dimension order: wavelengths, filter, lens, then the integrator's.
+            auto lambda = traits::sample_wavelengths(sampler.get_1d());
+            FilterSample fs = filter.sample(sampler.get_2d());
+            CameraSample cs;
+            cs.p_film = {Float(x) + 0.5f + fs.offset.x, Float(y) + 0.5f + fs.offset.y};
+            cs.p_lens = sampler.get_2d();
+            Ray ray = camera.generate_ray(cs);
+            S L = integrator.Li(scene, ray, lambda, sampler, counter);
+            RGB rgb = traits::to_rgb(L, lambda);
+            ++my_samples;
+            if (!rgb.is_finite()) {
+              ++my_dropped;
+              continue;
+            }
+            film.add_sample(x, y, rgb, fs.weight);
+          }
+      int d = ++done;
+      if (opt.progress) {
+        std::lock_guard lock(progress_mutex);
+        opt.progress(d, tiles);
+      }
+    }
+    samples += my_samples;
+    dropped += my_dropped;
+    rays += counter.rays;
+  };
+
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+
+  RenderStats st;
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  st.samples = samples;
+  st.rays = rays;
+  st.dropped = dropped;
+  st.cancelled = cancelled;
+  return st;
+}
+
+}  // namespace prism

@@ -1,0 +1,168 @@
+// prism/render/scene.hpp — a scene built in code: meshes and spheres with
+// materials, optional area emission, infinite lights. Templated on the colour
+// type S and the BxDF set, so a renderer is instantiated for what it needs.
+// build() validates and builds the acceleration structure; it throws
+// prism::Error naming the object and what is wrong.
+#pragma once
+#include <string>
+#include <variant>
+#include <vector>
+#include "prism/accel/scene_accel.hpp"
+#include "prism/bxdfs/bsdf.hpp"
+#include "prism/bxdfs/diffuse.hpp"
+#include "prism/error.hpp"
+#include "prism/lights/area.hpp"
+#include "prism/lights/infinite.hpp"
+#include "prism/lights/light_sampler.hpp"
+
+namespace prism {
+
+template <class S>
+using default_bxdf_set = bxdf_set<DiffuseBxDF<S>>;
+
+template <class S>
+using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>>;
+
+template <class S, class Set = default_bxdf_set<S>>
+class Scene {
+ public:
+  using spectrum_type = S;
+  using bxdf_set_type = Set;
+  using material_type = typename Set::material_variant;
+  using bsdf_type = BSDF<S, Set>;
+  using light_type = Light<S>;
+
+  uint32_t add_material(const material_type& m) {
+    m_materials.push_back(m);
+    return uint32_t(m_materials.size() - 1);
+  }
+  uint32_t add_mesh(TriangleMesh mesh) { return m_accel.add_mesh(std::move(mesh)); }
+  // An instance of a mesh; with emission, each of its triangles becomes an area light.
+  uint32_t add_instance(uint32_t mesh, uint32_t material, const Transform& object_to_world = {},
+                        std::optional<AreaEmission> emission = std::nullopt) {
+    uint32_t id = m_accel.add_mesh_instance(mesh, object_to_world);
+    m_info.push_back({int32_t(material), -1, emission});
+    return id;
+  }
+  // Convenience: a mesh used once.
+  uint32_t add_mesh_instance(TriangleMesh mesh, uint32_t material, std::optional<AreaEmission> emission = std::nullopt) {
+    return add_instance(add_mesh(std::move(mesh)), material, {}, emission);
+  }
+  uint32_t add_sphere(const Sphere& s, uint32_t material, std::optional<AreaEmission> emission = std::nullopt) {
+    uint32_t id = m_accel.add_sphere(s);
+    m_info.push_back({int32_t(material), -1, emission});
+    return id;
+  }
+  void add_infinite_light(const UniformInfiniteLight<S>& l) { m_infinite.push_back(l); }
+
+  // Validates the scene and builds lights and the acceleration structure.
+  void build(const BVHBuildOptions& opt = {}) {
+    const auto& meshes = m_accel.meshes();
+    for (size_t m = 0; m < meshes.size(); ++m) validate_mesh(meshes[m], m);
+    for (size_t i = 0; i < m_accel.spheres().size(); ++i) {
+      const Sphere& s = m_accel.spheres()[i];
+      if (!(s.radius > 0) || !std::isfinite(s.radius) || s.center.has_nan())
+        throw Error("scene: sphere " + std::to_string(i) + ": radius must be positive and finite, centre finite");
+    }
+    for (size_t i = 0; i < m_info.size(); ++i) {
+      if (m_info[i].material < 0 || size_t(m_info[i].material) >= m_materials.size())
+        throw Error("scene: instance " + std::to_string(i) + ": material index " + std::to_string(m_info[i].material) +
+                    " out of range (" + std::to_string(m_materials.size()) + " materials)");
+      const Instance& in = m_accel.instances()[i];
+      if (in.kind == Instance::Kind::mesh && !in.object_to_world.invertible())
+        throw Error("scene: instance " + std::to_string(i) + ": transform is singular");
+      if (auto& e = m_info[i].emission) {
+        if (!e->radiance.is_finite() || e->radiance.r < 0 || e->radiance.g < 0 || e->radiance.b < 0 ||
+            !(e->scale >= 0) || !std::isfinite(e->scale))
+          throw Error("scene: instance " + std::to_string(i) + ": emission must be finite and non-negative");
+      }
+    }
+    m_accel.build(opt);
+
+    m_lights.clear();
+    for (size_t i = 0; i < m_info.size(); ++i) {
+      auto& info = m_info[i];
+      info.light_offset = -1;
+      if (!info.emission || info.emission->radiance.is_black() || info.emission->scale == 0) continue;
+      const Instance& in = m_accel.instances()[i];
+      info.light_offset = int32_t(m_lights.size());
+      if (in.kind == Instance::Kind::sphere) {
+        m_lights.emplace_back(SphereAreaLight<S>(m_accel.spheres()[in.geometry], *info.emission, uint32_t(i)));
+        continue;
+      }
+      const TriangleMesh& mesh = meshes[in.geometry];
+      for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        Point3f p[3];
+        for (int j = 0; j < 3; ++j) p[j] = in.object_to_world(mesh.positions[mesh.indices[3 * t + size_t(j)]]);
+        m_lights.emplace_back(TriangleAreaLight<S>(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t)));
+      }
+    }
+    Bounds3f b = m_accel.bounds();
+    Float radius = b.empty() ? 1 : length(b.diagonal()) / 2;
+    for (auto& l : m_infinite) {
+      l.set_scene_radius(radius);
+      m_lights.emplace_back(l);
+      m_infinite_indices.push_back(uint32_t(m_lights.size() - 1));
+    }
+    m_light_sampler = UniformLightSampler(m_lights.size());
+  }
+
+  std::optional<SurfaceInteraction> intersect(const Ray& ray, Float t_max = infinity) const {
+    auto h = m_accel.intersect(ray, t_max);
+    if (!h) return std::nullopt;
+    SurfaceInteraction si = m_accel.interaction(ray, *h);
+    const auto& info = m_info[h->instance];
+    si.material = info.material;
+    si.area_light = info.light_offset < 0 ? -1 : info.light_offset + int32_t(h->primitive);
+    return si;
+  }
+  bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
+                uint32_t skip_primitive = UINT32_MAX) const {
+    return m_accel.occluded(ray, t_max, skip_instance, skip_primitive);
+  }
+
+  template <class W>
+  bsdf_type bsdf(const SurfaceInteraction& si, const W& lambda) const {
+    return bsdf_type::from_material(m_materials[size_t(si.material)], si, lambda);
+  }
+
+  const std::vector<light_type>& lights() const { return m_lights; }
+  const std::vector<uint32_t>& infinite_lights() const { return m_infinite_indices; }
+  const UniformLightSampler& light_sampler() const { return m_light_sampler; }
+  const SceneAccel& accel() const { return m_accel; }
+  Bounds3f bounds() const { return m_accel.bounds(); }
+
+ private:
+  static void validate_mesh(const TriangleMesh& m, size_t id) {
+    std::string where = "scene: mesh " + std::to_string(id) + ": ";
+    if (m.indices.size() % 3 != 0) throw Error(where + "index count is not a multiple of 3");
+    for (size_t i = 0; i < m.indices.size(); ++i)
+      if (m.indices[i] >= m.positions.size())
+        throw Error(where + "index " + std::to_string(i) + " (" + std::to_string(m.indices[i]) +
+                    ") is past the vertex count " + std::to_string(m.positions.size()));
+    for (size_t i = 0; i < m.positions.size(); ++i) {
+      const Point3f& p = m.positions[i];
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        throw Error(where + "position " + std::to_string(i) + " is not finite");
+    }
+    if (!m.normals.empty() && m.normals.size() != m.positions.size())
+      throw Error(where + "normal count differs from the vertex count");
+    if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
+      throw Error(where + "uv count differs from the vertex count");
+  }
+
+  struct InstanceInfo {
+    int32_t material;
+    int32_t light_offset;
+    std::optional<AreaEmission> emission;
+  };
+  SceneAccel m_accel;
+  std::vector<material_type> m_materials;
+  std::vector<InstanceInfo> m_info;
+  std::vector<UniformInfiniteLight<S>> m_infinite;
+  std::vector<light_type> m_lights;
+  std::vector<uint32_t> m_infinite_indices;
+  UniformLightSampler m_light_sampler;
+};
+
+}  // namespace prism
