@@ -62,7 +62,8 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
 
 class PathIntegrator {
  public:
-  explicit PathIntegrator(PathOptions opt = {}) : m_opt(opt) {}
+  PathIntegrator() = default;
+  explicit PathIntegrator(PathOptions opt) : m_opt(opt) {}
   const PathOptions& options() const { return m_opt; }
 
   template <class Scene, class Sampler, class W>
@@ -159,7 +160,8 @@ class PathIntegrator {
 
 class BSDFPathIntegrator {
  public:
-  explicit BSDFPathIntegrator(PathOptions opt = {}) : m_opt(opt) {}
+  BSDFPathIntegrator() = default;
+  explicit BSDFPathIntegrator(PathOptions opt) : m_opt(opt) {}
   const PathOptions& options() const { return m_opt; }
 
   template <class Scene, class Sampler, class W>

@@ -98,7 +98,7 @@ class SphereAreaLight {
   std::optional<LightLiSample<S>> sample_li(const LightSampleContext& ctx, Point2f u, const W& lambda) const {
     const Point3f& c = m_sphere.center;
     Float r = m_sphere.radius;
-    Float dc2 = distance_squared(ctx.p, c);
+    Float dc2 = distance_squared(receiver_origin(ctx), c);
     Point3f p;
     Normal3f n;
     Float pdf;
@@ -144,7 +144,9 @@ class SphereAreaLight {
       pdf = 1 / (2 * pi * one_minus_cos_max);
     }
     Vector3f p_err = abs(p - Point3f{}) * gamma(5);
-    Vector3f wi = normalize(p - ctx.p);
+    Vector3f to_light = p - ctx.p;
+    if (!(length_squared(to_light) > 0)) return std::nullopt;
+    Vector3f wi = normalize(to_light);
     S Le = L(n, -wi, lambda);
     if (Le.is_black() || !std::isfinite(pdf)) return std::nullopt;
     Point3f p_off = offset_ray_origin(p, p_err, n, -wi);
@@ -154,7 +156,7 @@ class SphereAreaLight {
   Float pdf_li(const LightSampleContext& ctx, const Vector3f& wi, const SurfaceInteraction& si) const {
     const Point3f& c = m_sphere.center;
     Float r = m_sphere.radius;
-    Float dc2 = distance_squared(ctx.p, c);
+    Float dc2 = distance_squared(receiver_origin(ctx), c);
     if (dc2 <= r * r) {
       Float cos_l = std::abs(dot(si.n, wi));
       if (cos_l == 0) return 0;
@@ -173,6 +175,14 @@ class SphereAreaLight {
   }
 
  private:
+  // Where the receiver's shadow rays start: its point moved off its own surface
+  // towards the centre. A receiver on this very sphere then counts as inside,
+  // so the cone construction (meant for outside points) is never used there.
+  Point3f receiver_origin(const LightSampleContext& ctx) const {
+    if (ctx.n == Normal3f{}) return ctx.p;
+    return offset_ray_origin(ctx.p, ctx.p_error, ctx.n, m_sphere.center - ctx.p);
+  }
+
   Sphere m_sphere;
   AreaEmission m_emission;
   uint32_t m_instance;
