@@ -73,18 +73,20 @@ int main(int argc, char** argv) {
   int width = 512, height = 512, spp = 64, threads = 0, max_depth = 64;
   uint64_t seed = 0;
   std::vector<std::string> outputs;
-  std::string integrator = "path";
+  std::string integrator = "path", filter = "box";
   bool quiet = false;
   app.add_option("scene", scene_path, "Scene file (glTF support arrives with the glTF module); default: built-in Cornell box");
-  app.add_option("--width", width, "Image width in pixels")->check(CLI::PositiveNumber);
-  app.add_option("--height", height, "Image height in pixels")->check(CLI::PositiveNumber);
-  app.add_option("--spp", spp, "Samples per pixel")->check(CLI::PositiveNumber);
+  app.add_option("--width", width, "Image width in pixels")->check(CLI::Range(1, 65536));
+  app.add_option("--height", height, "Image height in pixels")->check(CLI::Range(1, 65536));
+  app.add_option("--spp", spp, "Samples per pixel")->check(CLI::Range(1, 1 << 24));
   app.add_option("--seed", seed, "Random seed");
-  app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
-  app.add_option("--max-depth", max_depth, "Maximum path depth")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 4096));
+  app.add_option("--max-depth", max_depth, "Maximum path depth")->check(CLI::Range(0, 1 << 20));
   app.add_option("--out,-o", outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
   app.add_option("--integrator", integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
       ->check(CLI::IsMember({"path", "bsdf"}));
+  app.add_option("--filter", filter, "Pixel filter: box (1 pixel) or gaussian (radius 1.5, sigma 0.5)")
+      ->check(CLI::IsMember({"box", "gaussian"}));
   app.add_flag("--quiet,-q", quiet, "No progress bar");
   try {
     app.parse(argc, argv);
@@ -124,8 +126,11 @@ int main(int argc, char** argv) {
   opt.progress = [&](int done, int total) { bar.update(done, total); };
   PathOptions popt;
   popt.max_depth = max_depth;
-  RenderStats st = integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt)
-                                        : render(scene, camera, PathIntegrator(popt), film, opt);
+  auto run = [&](const auto& pixel_filter) {
+    return integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt, pixel_filter)
+                                : render(scene, camera, PathIntegrator(popt), film, opt, pixel_filter);
+  };
+  RenderStats st = filter == "gaussian" ? run(GaussianFilter{}) : run(BoxFilter{});
   Image img = to_image(film);
   for (const auto& o : outputs) {
     try {
@@ -135,8 +140,8 @@ int main(int argc, char** argv) {
     }
   }
   int used_threads = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  std::printf("prism-render: %dx%d, %d spp, %s, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu dropped%s\n",
-              width, height, spp, integrator.c_str(), used_threads, st.seconds, double(st.samples) / st.seconds * 1e-6,
+  std::printf("prism-render: %dx%d, %d spp, %s, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu dropped%s\n",
+              width, height, spp, integrator.c_str(), filter.c_str(), used_threads, st.seconds, double(st.samples) / st.seconds * 1e-6,
               double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped, st.cancelled ? " (cancelled)" : "");
   return st.cancelled ? 130 : 0;
 }
