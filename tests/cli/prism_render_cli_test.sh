@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# prism-render's command line: bad input gives one line on stderr and exit
+# code 2; a small render writes every requested format and a summary line.
+# Usage: prism_render_cli_test.sh PATH/TO/prism-render TMPDIR
+set -u
+bin="$1"; tmp="$2"; mkdir -p "$tmp"
+fails=0
+expect_error() {
+  local err rc
+  err=$("$bin" "$@" 2>&1 >/dev/null); rc=$?
+  if [ "$rc" != 2 ]; then echo "FAIL: '$*' exited $rc, expected 2"; fails=$((fails+1)); return; fi
+  if [ "$(printf '%s\n' "$err" | wc -l)" != 1 ] || ! printf '%s' "$err" | grep -q '^prism-render: error: '; then
+    echo "FAIL: '$*' did not print one error line: $err"; fails=$((fails+1)); return
+  fi
+  echo "ok: '$*' -> $err"
+}
+expect_error --width 0
+expect_error --height -5
+expect_error --spp 0
+expect_error --spp -1
+expect_error --threads -1
+expect_error --integrator nope
+expect_error --filter nope
+expect_error --bogus-option
+expect_error --out /nonexistent-dir/x.png
+expect_error --out "$tmp/x.jpg"
+expect_error --out "$tmp"
+chmod 500 "$tmp" 2>/dev/null
+if [ "$(id -u)" != 0 ]; then expect_error --out "$tmp/ro.png"; fi
+chmod 700 "$tmp"
+
+rm -f "$tmp"/cli.png "$tmp"/cli.exr "$tmp"/cli.pfm
+out=$("$bin" --width 24 --height 16 --spp 2 --out "$tmp/cli.png" --out "$tmp/cli.exr" --out "$tmp/cli.pfm" 2>/dev/null); rc=$?
+if [ "$rc" != 0 ]; then echo "FAIL: small render exited $rc"; fails=$((fails+1)); fi
+for f in cli.png cli.exr cli.pfm; do
+  [ -s "$tmp/$f" ] || { echo "FAIL: $f not written"; fails=$((fails+1)); }
+done
+printf '%s\n' "$out" | grep -Eq 'samples/s.*rays/s.*[0-9]+ dropped' || { echo "FAIL: no summary line: $out"; fails=$((fails+1)); }
+"$bin" --help | grep -q -- '--spp' || { echo "FAIL: --help lists no --spp"; fails=$((fails+1)); }
+
+if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
+echo "all prism-render CLI checks passed"
