@@ -66,6 +66,11 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
   Float det = e0 + e1 + e2;
   if (det == 0) return std::nullopt;
 
+  // Largest |z| before scaling, in the same (spatial) units as x and y: the
+  // shear's error bound below needs it, not the scaled z (which is in units of
+  // the ray parameter and differs by 1 / d_z when d is not unit length).
+  Float max_z = max_component(abs(Vector3f{p0t.z, p1t.z, p2t.z}));
+
   // Scaled hit distance, compared against the range before dividing.
   p0t.z *= pc.sz; p1t.z *= pc.sz; p2t.z *= pc.sz;
   Float t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
@@ -82,12 +87,14 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
   Float delta_z = gamma(3) * max_zt;
   Float max_xt = max_component(abs(Vector3f{p0t.x, p1t.x, p2t.x}));
   Float max_yt = max_component(abs(Vector3f{p0t.y, p1t.y, p2t.y}));
-  Float delta_x = gamma(5) * (max_xt + max_zt);
-  Float delta_y = gamma(5) * (max_yt + max_zt);
+  Float delta_x = gamma(5) * (max_xt + max_z);
+  Float delta_y = gamma(5) * (max_yt + max_z);
   Float delta_e = 2 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
   Float max_e = max_component(abs(Vector3f{e0, e1, e2}));
   Float delta_t = 3 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * std::abs(inv_det);
-  if (t <= delta_t) return std::nullopt;
+  // Written to reject NaN and infinite t too (overflowing products of huge
+  // coordinates make det or t_scaled infinite, and their quotient NaN).
+  if (!(t > delta_t && t < infinity)) return std::nullopt;
   return TriangleHit{t, b0, b1, b2};
 }
 

@@ -87,10 +87,12 @@ class Transform {
 
   Point3f operator()(const Point3f& p) const {
     const auto& m = m_m.m;
-    Float x = m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3];
-    Float y = m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3];
-    Float z = m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3];
-    Float w = m[3][0] * p.x + m[3][1] * p.y + m[3][2] * p.z + m[3][3];
+    // Summed pairwise, as in pbrt-v4, so that no term is rounded more than
+    // three times: apply()'s gamma(3) bound relies on this grouping.
+    Float x = (m[0][0] * p.x + m[0][1] * p.y) + (m[0][2] * p.z + m[0][3]);
+    Float y = (m[1][0] * p.x + m[1][1] * p.y) + (m[1][2] * p.z + m[1][3]);
+    Float z = (m[2][0] * p.x + m[2][1] * p.y) + (m[2][2] * p.z + m[2][3]);
+    Float w = (m[3][0] * p.x + m[3][1] * p.y) + (m[3][2] * p.z + m[3][3]);
     return w == 1 ? Point3f{x, y, z} : Point3f{x, y, z} / w;
   }
   Vector3f operator()(const Vector3f& v) const {
