@@ -236,6 +236,8 @@ class BVH {
         Float lo = cb.min[axis], hi = cb.max[axis];
         if (!(hi > lo)) continue;
         Float k = Float(bin_count) * (1 - 1e-6f) / (hi - lo);
+        // A spread below 16 / FLT_MAX overflows the bin scale: skip the axis.
+        if (!std::isfinite(k)) continue;
         Bounds3f bin_b[bin_count];
         uint32_t bin_n[bin_count] = {};
         for (uint32_t i = begin; i < end; ++i) {
