@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs what the benchmarks need (Embree 3, Google Benchmark), builds them in
+# Release with -O3 -march=native (bench targets only) and runs them from the
+# project root. Results: bench/results/traversal.csv and bench/results/render.csv.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+bash scripts/setup.sh libembree-dev libbenchmark-dev
+cmake -S . -B build/bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DPRISM_BUILD_BENCH=ON \
+  -DPRISM_BUILD_TESTS=OFF -DPRISM_BUILD_EXAMPLES=OFF >/dev/null
+cmake --build build/bench --target traversal_bench render_bench
+mkdir -p bench/results
+./build/bench/bench/traversal_bench "$@"
+./build/bench/bench/render_bench bench/results/render.csv
+echo "--- bench/results/traversal.csv"; cat bench/results/traversal.csv
+echo "--- bench/results/render.csv"; cat bench/results/render.csv
