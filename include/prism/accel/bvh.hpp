@@ -1,7 +1,7 @@
 // prism/accel/bvh.hpp — a binary BVH built with the binned surface-area
 // heuristic (Wald 2007, "On fast Construction of SAH-based Bounding Volume
 // Hierarchies") and stored flat in depth-first order: 32-byte nodes, the first
-// child right after its parent, so traversal walks memory forwards.
+// child right after its parent.
 //
 // The BVH knows only primitive bounds. Traversal takes a callback that
 // intersects primitive i (in the BVH's leaf order) and shrinks t_max on a hit;
@@ -11,15 +11,45 @@
 //
 // The build is deterministic: the same input gives the same tree at any
 // thread count (subtrees are built in parallel, then laid out in a fixed order).
+// It bins all three axes in one SIMD pass over 32-byte primitive references
+// and derives the children's bounds from the bins and the partition pass.
+//
+// Traversal runs on a second layout derived from the binary tree: nodes with
+// up to eight children whose boxes sit side by side (as in Embree's BVH8), so
+// one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
+// makes a fraction of the binary tree's visits and cache misses. Each lane's
+// box test is exactly intersect_node's, so a ray reaches the same primitives
+// as through the binary tree.
 #pragma once
+#include <algorithm>
 #include <atomic>
+#include <bit>
+#include <cmath>
 #include <cstdint>
 #include <future>
 #include <memory>
 #include <span>
 #include <thread>
+#include <type_traits>
 #include <vector>
 #include "prism/geometry/ray.hpp"
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+// SIMD paths: SSE2 for the build and (without AVX) traversal, AVX for
+// traversal; plain C++ otherwise, or with PRISM_BVH_NO_SIMD defined. All
+// paths compute the same values.
+#if defined(PRISM_BVH_NO_SIMD)
+#elif defined(__AVX__)
+#include <immintrin.h>
+#define PRISM_BVH_AVX 1
+#define PRISM_BVH_SSE 1
+#elif defined(__SSE2__) || defined(_M_X64) || (defined(_M_IX86_FP) && _M_IX86_FP >= 2)
+#include <emmintrin.h>
+#define PRISM_BVH_SSE 1
+#endif
 
 namespace prism {
 
@@ -80,27 +110,209 @@ inline Float intersect_node(const BVHNode& n, const RayBoxPrecomp& r, Float t_ma
   return t0 <= t1 * widen ? t0 : infinity;
 }
 
+namespace detail {
+
+// Asks the OS to back a large buffer about to be written with huge pages
+// (Linux transparent huge pages in "madvise" mode): building a BVH writes some
+// hundred megabytes, and faulting them in 4 KiB at a time is a large share of
+// the build time. A hint only; elsewhere, or for small buffers, nothing.
+inline void advise_huge_pages([[maybe_unused]] const void* p, [[maybe_unused]] size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t huge = uintptr_t(2) << 20;
+  uintptr_t begin = (reinterpret_cast<uintptr_t>(p) + huge - 1) & ~(huge - 1);
+  uintptr_t end = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(huge - 1);
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#endif
+}
+template <class T>
+void reserve_huge(std::vector<T>& v, size_t n) {
+  v.reserve(n);
+  advise_huge_pages(v.data(), v.capacity() * sizeof(T));
+}
+
+// Threads for a build: 0 means all hardware threads.
+inline int build_threads(int requested) {
+  return requested > 0 ? requested : int(std::max(1u, std::thread::hardware_concurrency()));
+}
+// How many contiguous chunks parallel_chunks should split n items into.
+inline int parallel_chunk_count(size_t n, int threads) { return n < 64 * 1024 ? 1 : std::max(1, threads); }
+// Runs fn(begin, end, chunk) on `chunks` contiguous ranges of [0, n), one
+// thread per chunk (the calling thread takes the first).
+template <class F>
+void parallel_chunks(size_t n, int chunks, F&& fn) {
+  if (chunks <= 1) {
+    fn(size_t(0), n, 0);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int c = 1; c < chunks; ++c)
+    pool.emplace_back([&, c] { fn(n * size_t(c) / size_t(chunks), n * size_t(c + 1) / size_t(chunks), c); });
+  fn(size_t(0), n / size_t(chunks), 0);
+  for (auto& t : pool) t.join();
+}
+
+// Up to eight children of the binary tree, gathered under one node for
+// traversal. Boxes are stored as structure of arrays: b[16 * axis + 8 * side +
+// lane], side 0 = min, 1 = max. Unused lanes hold an empty box (+inf, -inf)
+// and an empty leaf, so they are never entered by a ray without NaNs and are
+// harmless for one with them.
+inline constexpr int wide_width = 8;
+struct alignas(64) BVHWideNode {
+  static constexpr uint32_t interior = UINT32_MAX;
+  Float b[6 * wide_width];
+  uint32_t child[wide_width];  // interior: index of a wide node; leaf: first primitive (leaf order)
+  uint32_t count[wide_width];  // leaf: primitive count; interior: `interior`
+};
+static_assert(sizeof(BVHWideNode) == 256);
+
+// Per-ray data for the lane-parallel box tests: the offsets in BVHWideNode::b
+// of the near and far slab planes per axis, chosen by the direction's sign as
+// in intersect_node.
+struct WideRayPrecomp {
+#if defined(PRISM_BVH_AVX)
+  __m256 o[3], inv_d[3];
+#elif defined(PRISM_BVH_SSE)
+  __m128 o[3], inv_d[3];
+#else
+  Float o[3], inv_d[3];
+#endif
+  int near_off[3], far_off[3];
+  explicit WideRayPrecomp(const RayBoxPrecomp& r) {
+    for (int a = 0; a < 3; ++a) {
+#if defined(PRISM_BVH_AVX)
+      o[a] = _mm256_set1_ps(r.o[a]);
+      inv_d[a] = _mm256_set1_ps(r.inv_d[a]);
+#elif defined(PRISM_BVH_SSE)
+      o[a] = _mm_set1_ps(r.o[a]);
+      inv_d[a] = _mm_set1_ps(r.inv_d[a]);
+#else
+      o[a] = r.o[a];
+      inv_d[a] = r.inv_d[a];
+#endif
+      near_off[a] = 2 * wide_width * a + wide_width * r.sign[a];
+      far_off[a] = 2 * wide_width * a + wide_width * (1 - r.sign[a]);
+    }
+  }
+};
+
+// intersect_node for all lanes of a wide node: returns the mask of lanes
+// entered before t_max and writes their entry distances to t_entry. The
+// operations and their order (including which operand wins a comparison with
+// a NaN) are intersect_node's, so every lane's result is bit for bit the same:
+// max(a, b) below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane.
+inline int intersect_wide(const BVHWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
+  constexpr Float widen = 1 + 2 * gamma(3);
+#if defined(PRISM_BVH_AVX)
+  __m256 t0 = _mm256_setzero_ps();
+  __m256 t1 = _mm256_set1_ps(t_max);
+  for (int a = 0; a < 3; ++a) {
+    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b + r.near_off[a]), r.o[a]), r.inv_d[a]);
+    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b + r.far_off[a]), r.o[a]), r.inv_d[a]);
+    t0 = _mm256_max_ps(tn, t0);
+    t1 = _mm256_min_ps(tf, t1);
+  }
+  _mm256_store_ps(t_entry, t0);
+  return _mm256_movemask_ps(_mm256_cmp_ps(t0, _mm256_mul_ps(t1, _mm256_set1_ps(widen)), _CMP_LE_OQ));
+#elif defined(PRISM_BVH_SSE)
+  int mask = 0;
+  for (int h = 0; h < wide_width; h += 4) {
+    __m128 t0 = _mm_setzero_ps();
+    __m128 t1 = _mm_set1_ps(t_max);
+    for (int a = 0; a < 3; ++a) {
+      __m128 tn = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b + r.near_off[a] + h), r.o[a]), r.inv_d[a]);
+      __m128 tf = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b + r.far_off[a] + h), r.o[a]), r.inv_d[a]);
+      t0 = _mm_max_ps(tn, t0);
+      t1 = _mm_min_ps(tf, t1);
+    }
+    _mm_store_ps(t_entry + h, t0);
+    mask |= _mm_movemask_ps(_mm_cmple_ps(t0, _mm_mul_ps(t1, _mm_set1_ps(widen)))) << h;
+  }
+  return mask;
+#else
+  int mask = 0;
+  for (int l = 0; l < wide_width; ++l) {
+    Float t0 = 0, t1 = t_max;
+    for (int a = 0; a < 3; ++a) {
+      Float tn = (n.b[r.near_off[a] + l] - r.o[a]) * r.inv_d[a];
+      Float tf = (n.b[r.far_off[a] + l] - r.o[a]) * r.inv_d[a];
+      t0 = tn > t0 ? tn : t0;
+      t1 = tf < t1 ? tf : t1;
+    }
+    t_entry[l] = t0;
+    if (t0 <= t1 * widen) mask |= 1 << l;
+  }
+  return mask;
+#endif
+}
+
+// Starts loading a wide node that traversal has deferred, so that it is in
+// cache by the time the stack hands it back.
+inline void prefetch(const BVHWideNode* n) {
+  const char* p = reinterpret_cast<const char*>(n);
+  for (size_t off = 0; off < sizeof(BVHWideNode); off += 64) {
+#if defined(PRISM_BVH_SSE)
+    _mm_prefetch(p + off, _MM_HINT_T0);
+#elif defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(p + off);
+#endif
+  }
+}
+
+}  // namespace detail
+
 class BVH {
  public:
   // Depth is at most 48 SAH levels plus 32 halvings (see Builder::max_sah_depth).
   static constexpr int traversal_stack_size = 96;
+  // The wide layout is no deeper than the binary tree; a visit defers at most seven children.
+  static constexpr int wide_stack_size = (detail::wide_width - 1) * traversal_stack_size + detail::wide_width;
   BVH() = default;
 
   // Builds over primitives with the given bounds. Empty input gives an empty BVH.
   static BVH build(std::span<const Bounds3f> prim_bounds, const BVHBuildOptions& opt = {}) {
+    return build(prim_bounds.size(), [prim_bounds](size_t i) { return prim_bounds[i]; }, opt);
+  }
+  // The same, with the bounds of primitive i given by bounds_of(i) (called once
+  // per primitive, possibly from several threads), so that callers need not
+  // store them.
+  template <class BoundsOf>
+    requires std::is_invocable_r_v<Bounds3f, BoundsOf&, size_t>
+  static BVH build(size_t n, BoundsOf&& bounds_of, const BVHBuildOptions& opt = {}) {
     BVH bvh;
-    size_t n = prim_bounds.size();
     if (n == 0) return bvh;
-    Builder b{prim_bounds, opt, {}, {}, {}};
-    b.centroids.resize(n);
-    for (size_t i = 0; i < n; ++i) b.centroids[i] = prim_bounds[i].centroid();
+    int threads = detail::build_threads(opt.threads);
+    Builder b(opt, threads);
+    b.refs.reset(new PrimRef[n]);  // default-initialised: written once, below
+    detail::advise_huge_pages(b.refs.get(), n * sizeof(PrimRef));
+    // Primitive references and the root's bounds, in chunks merged in order
+    // (min and max keep the first of equal values, as a sequential loop does).
+    int chunks = detail::parallel_chunk_count(n, threads);
+    std::vector<Bounds3f> chunk_bb(static_cast<size_t>(chunks)), chunk_cb(static_cast<size_t>(chunks));
+    detail::parallel_chunks(n, chunks, [&](size_t begin, size_t end, int c) {
+      Bounds3f bb, cb;
+      for (size_t i = begin; i < end; ++i) {
+        Bounds3f pb = bounds_of(i);
+        b.refs[i] = PrimRef::make(pb, uint32_t(i));
+        bb = union_bounds(bb, pb);
+        cb = union_bounds(cb, pb.centroid());
+      }
+      chunk_bb[size_t(c)] = bb;
+      chunk_cb[size_t(c)] = cb;
+    });
+    Bounds3f bb, cb;
+    for (int c = 0; c < chunks; ++c) {
+      bb = union_bounds(bb, chunk_bb[size_t(c)]);
+      cb = union_bounds(cb, chunk_cb[size_t(c)]);
+    }
+    detail::reserve_huge(bvh.m_nodes, 2 * n - 1);
+    b.build_range(0, uint32_t(n), 0, bb, cb, bvh.m_nodes);
+    detail::reserve_huge(bvh.m_prims, n);
     bvh.m_prims.resize(n);
-    for (size_t i = 0; i < n; ++i) bvh.m_prims[i] = uint32_t(i);
-    int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-    b.spare_threads = threads - 1;
-    auto root = b.build_range(bvh.m_prims.data(), 0, uint32_t(n), 0);
-    bvh.m_nodes.reserve(b.node_count.load());
-    flatten(*root, bvh.m_nodes);
+    detail::parallel_chunks(n, chunks, [&](size_t begin, size_t end, int) {
+      for (size_t i = begin; i < end; ++i) bvh.m_prims[i] = b.refs[i].index;
+    });
+    detail::reserve_huge(bvh.m_wide, bvh.m_nodes.size() / 4 + 1);
+    bvh.collapse(0);
     return bvh;
   }
 
@@ -111,43 +323,85 @@ class BVH {
   Bounds3f bounds() const { return m_nodes.empty() ? Bounds3f{} : m_nodes[0].bounds(); }
 
   // Closest hit. isect(k, t_max) tests leaf-order primitive k and, on a hit
-  // closer than t_max, lowers t_max and returns true.
+  // closer than t_max, lowers t_max and returns true. Children are visited
+  // nearest entry first; a deferred child is skipped once a closer hit makes it
+  // unreachable.
   template <class F>
   bool intersect(const Point3f& o, const Vector3f& d, Float& t_max, F&& isect) const {
     if (m_nodes.empty()) return false;
-    RayBoxPrecomp r(o, d);
-    if (intersect_node(m_nodes[0], r, t_max) == infinity) return false;
-    uint32_t stack[traversal_stack_size];
+    return intersect(detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, isect);
+  }
+  // The same with the ray's box-test data computed once by the caller, which
+  // may trace the ray through several BVHs.
+  template <class F>
+  bool intersect(const detail::WideRayPrecomp& r, Float& t_max, F&& isect) const {
+    if (m_nodes.empty()) return false;
+    // No separate test of the root box: a ray that misses it misses every
+    // child box inside it too (the slab distances are monotonic in the planes).
+    constexpr Float widen = 1 + 2 * gamma(3);
+    struct Entry {
+      uint32_t child, count;
+      Float t;
+    };
+    Entry stack[wide_stack_size];
     int sp = 0;
     uint32_t idx = 0;
     bool hit = false;
     for (;;) {
-      const BVHNode& node = m_nodes[idx];
-      if (node.is_leaf()) {
-        for (uint32_t k = node.offset, e = node.offset + node.count; k < e; ++k)
-          if (isect(k, t_max)) hit = true;
-      } else {
-        uint32_t l = idx + 1, rr = node.offset;
-        Float tl = intersect_node(m_nodes[l], r, t_max);
-        Float tr = intersect_node(m_nodes[rr], r, t_max);
-        if (tl != infinity) {
-          if (tr != infinity) {
-            if (tr < tl) std::swap(l, rr);
-            stack[sp++] = rr;
+      const detail::BVHWideNode& node = m_wide[idx];
+      alignas(32) Float t_entry[detail::wide_width];
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_max, t_entry));
+      if (mask != 0) {
+        // Visit the nearest child next and defer the others, farthest deepest;
+        // equal entry distances keep lane order.
+        int l = std::countr_zero(mask);
+        mask &= mask - 1;
+        if (mask != 0) {
+          int l1 = std::countr_zero(mask);
+          mask &= mask - 1;
+          if (mask == 0) {
+            if (t_entry[l1] < t_entry[l]) std::swap(l, l1);
+            stack[sp++] = {node.child[l1], node.count[l1], t_entry[l1]};
+          } else {
+            // Three or more: sort (distance, lane) keys; distances are >= +0,
+            // so their bit patterns order like their values.
+            uint64_t key[detail::wide_width];
+            int n = 0;
+            mask |= (1u << l) | (1u << l1);
+            while (mask != 0) {
+              int c = std::countr_zero(mask);
+              mask &= mask - 1;
+              uint64_t kc = uint64_t(std::bit_cast<uint32_t>(t_entry[c])) << 32 | uint64_t(c);
+              int j = n++;
+              for (; j > 0 && kc < key[j - 1]; --j) key[j] = key[j - 1];
+              key[j] = kc;
+            }
+            for (int j = n - 1; j > 0; --j) {
+              int c = int(key[j] & 0xff);
+              stack[sp++] = {node.child[c], node.count[c], t_entry[c]};
+            }
+            l = int(key[0] & 0xff);
           }
-          idx = l;
+        }
+        if (node.count[l] == detail::BVHWideNode::interior) {
+          idx = node.child[l];
           continue;
         }
-        if (tr != infinity) {
-          idx = rr;
-          continue;
-        }
+        for (uint32_t k = node.child[l], e = k + node.count[l]; k < e; ++k)
+          if (isect(k, t_max)) hit = true;
       }
-      // Pop, skipping nodes that a closer hit has since made unreachable.
+      // Pop, skipping entries that a closer hit has since made unreachable
+      // (exactly intersect_node's test with the lowered t_max).
       for (;;) {
         if (sp == 0) return hit;
-        idx = stack[--sp];
-        if (!hit || intersect_node(m_nodes[idx], r, t_max) != infinity) break;
+        const Entry& e = stack[--sp];
+        if (hit && !(e.t <= t_max * widen)) continue;
+        if (e.count == detail::BVHWideNode::interior) {
+          idx = e.child;
+          break;
+        }
+        for (uint32_t k = e.child, end = k + e.count; k < end; ++k)
+          if (isect(k, t_max)) hit = true;
       }
     }
   }
@@ -156,28 +410,30 @@ class BVH {
   template <class F>
   bool occluded(const Point3f& o, const Vector3f& d, Float t_max, F&& isect) const {
     if (m_nodes.empty()) return false;
-    RayBoxPrecomp r(o, d);
-    if (intersect_node(m_nodes[0], r, t_max) == infinity) return false;
-    uint32_t stack[traversal_stack_size];
+    return occluded(detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, isect);
+  }
+  template <class F>
+  bool occluded(const detail::WideRayPrecomp& r, Float t_max, F&& isect) const {
+    if (m_nodes.empty()) return false;
+    uint32_t stack[wide_stack_size];
     int sp = 0;
     uint32_t idx = 0;
     for (;;) {
-      const BVHNode& node = m_nodes[idx];
-      if (node.is_leaf()) {
-        for (uint32_t k = node.offset, e = node.offset + node.count; k < e; ++k)
-          if (isect(k, t_max)) return true;
-      } else {
-        uint32_t l = idx + 1, rr = node.offset;
-        bool hl = intersect_node(m_nodes[l], r, t_max) != infinity;
-        bool hr = intersect_node(m_nodes[rr], r, t_max) != infinity;
-        if (hl) {
-          if (hr) stack[sp++] = rr;
-          idx = l;
-          continue;
-        }
-        if (hr) {
-          idx = rr;
-          continue;
+      const detail::BVHWideNode& node = m_wide[idx];
+      alignas(32) Float t_entry[detail::wide_width];
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_max, t_entry));
+      // Leaves first (an early exit is cheap), then defer the inner children,
+      // whose nodes start loading now.
+      while (mask != 0) {
+        int l = std::countr_zero(mask);
+        mask &= mask - 1;
+        uint32_t c = node.child[l], count = node.count[l];
+        if (count == detail::BVHWideNode::interior) {
+          stack[sp++] = c;
+          detail::prefetch(&m_wide[c]);
+        } else {
+          for (uint32_t k = c, e = c + count; k < e; ++k)
+            if (isect(k, t_max)) return true;
         }
       }
       if (sp == 0) return false;
@@ -186,144 +442,373 @@ class BVH {
   }
 
  private:
-  struct BuildNode {
-    Bounds3f bounds;
-    uint32_t first = 0, count = 0;
-    std::unique_ptr<BuildNode> child[2];
+  // A primitive during the build: its bounds and its input index, laid out
+  // for two 16-byte loads.
+  struct alignas(16) PrimRef {
+    Float lo[3];
+    uint32_t index;
+    Float hi[3];
+    uint32_t pad;
+    static PrimRef make(const Bounds3f& b, uint32_t i) {
+      return {{b.min.x, b.min.y, b.min.z}, i, {b.max.x, b.max.y, b.max.z}, 0};
+    }
+    Bounds3f bounds() const {
+      Bounds3f b;
+      b.min = {lo[0], lo[1], lo[2]};
+      b.max = {hi[0], hi[1], hi[2]};
+      return b;
+    }
   };
 
+  // A running union of boxes, with union_bounds' semantics: per component
+  // std::min(acc, v) and std::max(acc, v), so the first of equal values (and
+  // a NaN already in acc) is kept. minps(v, acc) is v < acc ? v : acc, which
+  // is std::min(acc, v); likewise for max.
+  struct BoxAcc {
+#ifdef PRISM_BVH_SSE
+    __m128 lo = _mm_set1_ps(infinity), hi = _mm_set1_ps(-infinity);
+    void grow(__m128 l, __m128 h) {
+      lo = _mm_min_ps(l, lo);
+      hi = _mm_max_ps(h, hi);
+    }
+    void grow(const BoxAcc& b) { grow(b.lo, b.hi); }
+    Bounds3f bounds() const {
+      alignas(16) Float l[4], h[4];
+      _mm_store_ps(l, lo);
+      _mm_store_ps(h, hi);
+      Bounds3f b;
+      b.min = {l[0], l[1], l[2]};
+      b.max = {h[0], h[1], h[2]};
+      return b;
+    }
+#else
+    Bounds3f box;
+    void grow(const Bounds3f& b) { box = union_bounds(box, b); }
+    void grow(const BoxAcc& b) { grow(b.box); }
+    Bounds3f bounds() const { return box; }
+#endif
+  };
+
+  // Top-down binned SAH. Each call appends its subtree to `out` in depth-first
+  // order (interior offsets index `out`); subtrees built by other threads go to
+  // their own arrays and are appended in a fixed order, so the layout does not
+  // depend on the thread count or timing.
   struct Builder {
-    std::span<const Bounds3f> bounds;
     const BVHBuildOptions& opt;
-    std::vector<Point3f> centroids;
-    std::atomic<int> spare_threads{0};
-    std::atomic<size_t> node_count{0};
+    int threads;
+    std::unique_ptr<PrimRef[]> refs;
+    std::atomic<int> active{1};  // threads doing build work
     static constexpr int bin_count = 16;
-    static constexpr uint32_t parallel_threshold = 32 * 1024;
+    static constexpr uint32_t parallel_threshold = 16 * 1024;
 
     // Past this depth the builder halves ranges instead of using the SAH, so
     // traversal stacks (max_sah_depth + 32 entries) never overflow.
     static constexpr int max_sah_depth = 48;
 
-    std::unique_ptr<BuildNode> build_range(uint32_t* prims, uint32_t begin, uint32_t end, int depth) {
-      auto node = std::make_unique<BuildNode>();
-      ++node_count;
-      Bounds3f bb, cb;
+    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t) {}
+
+    // The bin of centroid coordinate c: std::min(bin_count - 1, int((c - lo) * k)),
+    // with NaN (from infinite bounds) in bin 0 rather than undefined.
+    static int bin_of(Float c, Float lo, Float k) {
+      Float x = (c - lo) * k;
+      return x >= 0 ? std::min(bin_count - 1, int(std::min(x, Float(bin_count)))) : 0;
+    }
+
+    static Bounds3f centroid_bounds(const PrimRef* r, uint32_t begin, uint32_t end, Bounds3f* bb) {
+      Bounds3f b, cb;
       for (uint32_t i = begin; i < end; ++i) {
-        bb = union_bounds(bb, bounds[prims[i]]);
-        cb = union_bounds(cb, centroids[prims[i]]);
+        Bounds3f pb = r[i].bounds();
+        b = union_bounds(b, pb);
+        cb = union_bounds(cb, pb.centroid());
       }
-      node->bounds = bb;
+      *bb = b;
+      return cb;
+    }
+
+    // bb and cb bound the primitives of [begin, end) and their centroids.
+    void build_range(uint32_t begin, uint32_t end, int depth, const Bounds3f& bb, const Bounds3f& cb,
+                     std::vector<BVHNode>& out) {
+      uint32_t idx = uint32_t(out.size());
+      out.emplace_back();
+      for (int i = 0; i < 3; ++i) {
+        out[idx].bmin[i] = bb.min[i];
+        out[idx].bmax[i] = bb.max[i];
+      }
       uint32_t n = end - begin;
       auto make_leaf = [&] {
-        node->first = begin;
-        node->count = n;
-        return std::move(node);
+        out[idx].offset = begin;
+        out[idx].count = n;
       };
       if (n == 1) return make_leaf();
+      PrimRef* r = refs.get();
+      Bounds3f lb, lc, rb, rc;  // children's bounds and centroid bounds
+      uint32_t mid;
       if (depth >= max_sah_depth) {
         if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
-        uint32_t half = begin + n / 2;
-        node->child[0] = build_range(prims, begin, half, depth + 1);
-        node->child[1] = build_range(prims, half, end, depth + 1);
-        return node;
-      }
-
-      // Bin centroids along each axis and evaluate the SAH at every bin boundary.
-      int best_axis = -1, best_split = 0;
-      Float best_cost = infinity;
-      for (int axis = 0; axis < 3; ++axis) {
-        Float lo = cb.min[axis], hi = cb.max[axis];
-        if (!(hi > lo)) continue;
-        Float k = Float(bin_count) * (1 - 1e-6f) / (hi - lo);
-        // A spread below 16 / FLT_MAX overflows the bin scale: skip the axis.
-        if (!std::isfinite(k)) continue;
-        Bounds3f bin_b[bin_count];
-        uint32_t bin_n[bin_count] = {};
+        mid = begin + n / 2;
+        lc = centroid_bounds(r, begin, mid, &lb);
+        rc = centroid_bounds(r, mid, end, &rb);
+      } else {
+        // Bin centroids along each axis and evaluate the SAH at every bin
+        // boundary, all axes in one pass over the primitives.
+        Float lo[3] = {}, k[3] = {};
+        bool active_axis[3] = {};
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = cb.min[a];
+          active_axis[a] = cb.max[a] > lo[a];
+          k[a] = active_axis[a] ? Float(bin_count) * (1 - 1e-6f) / (cb.max[a] - lo[a]) : 0;
+          // A spread below 16 / FLT_MAX overflows the bin scale: skip the axis.
+          if (!std::isfinite(k[a])) {
+            active_axis[a] = false;
+            k[a] = 0;
+          }
+        }
+        BoxAcc bin_b[3][bin_count];
+        uint32_t bin_n[3][bin_count] = {};
+#ifdef PRISM_BVH_SSE
+        const __m128 lo4 = _mm_setr_ps(lo[0], lo[1], lo[2], 0), k4 = _mm_setr_ps(k[0], k[1], k[2], 0);
+        const __m128 half = _mm_set1_ps(0.5f);
+        const __m128i last_bin = _mm_set1_epi32(bin_count - 1);
+        // A primitive's bounds l, h (lane 3, which holds the index and padding,
+        // cleared so that no arithmetic sees their bits as slow denormals), its
+        // centroid c and its bins in lanes 0-2, bin_of's values.
+        const __m128 xyz = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
+        auto bins_of = [&](const PrimRef& p, __m128& l, __m128& h, __m128& c) {
+          l = _mm_and_ps(_mm_load_ps(p.lo), xyz);
+          h = _mm_and_ps(_mm_load_ps(p.hi), xyz);
+          c = _mm_mul_ps(_mm_add_ps(l, h), half);
+          // (c - lo) * k >= 0 for finite bounds; NaN (from infinite bounds)
+          // converts to INT_MIN, which is clamped to bin 0.
+          __m128i bi = _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(c, lo4), k4));
+          bi = _mm_and_si128(bi, _mm_cmpgt_epi32(bi, _mm_set1_epi32(-1)));
+          __m128i lt = _mm_cmplt_epi32(bi, last_bin);
+          return _mm_or_si128(_mm_and_si128(lt, bi), _mm_andnot_si128(lt, last_bin));
+        };
         for (uint32_t i = begin; i < end; ++i) {
-          int bi = std::min(bin_count - 1, int((centroids[prims[i]][axis] - lo) * k));
-          ++bin_n[bi];
-          bin_b[bi] = union_bounds(bin_b[bi], bounds[prims[i]]);
+          __m128 l, h, c;
+          alignas(16) int bi[4];
+          _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
+          for (int a = 0; a < 3; ++a) {
+            if (!active_axis[a]) continue;
+            ++bin_n[a][bi[a]];
+            bin_b[a][bi[a]].grow(l, h);
+          }
         }
-        Float right_area[bin_count];
-        uint32_t right_n[bin_count];
-        Bounds3f acc;
-        uint32_t acc_n = 0;
-        for (int i = bin_count - 1; i > 0; --i) {
-          acc = union_bounds(acc, bin_b[i]);
-          acc_n += bin_n[i];
-          right_area[i] = acc.surface_area();
-          right_n[i] = acc_n;
+#else
+        for (uint32_t i = begin; i < end; ++i) {
+          Bounds3f b = r[i].bounds();
+          Point3f c = b.centroid();
+          for (int a = 0; a < 3; ++a) {
+            if (!active_axis[a]) continue;
+            int bi = bin_of(c[a], lo[a], k[a]);
+            ++bin_n[a][bi];
+            bin_b[a][bi].grow(b);
+          }
         }
-        acc = Bounds3f{};
-        acc_n = 0;
-        for (int i = 0; i < bin_count - 1; ++i) {
-          acc = union_bounds(acc, bin_b[i]);
-          acc_n += bin_n[i];
-          if (acc_n == 0 || right_n[i + 1] == 0) continue;
-          Float cost = Float(acc_n) * acc.surface_area() + Float(right_n[i + 1]) * right_area[i + 1];
-          if (cost < best_cost) {
-            best_cost = cost;
-            best_axis = axis;
-            best_split = i;
+#endif
+        // A boundary after an empty bin splits like the one before it, so only
+        // boundaries after occupied bins are costed (the first of equal costs
+        // wins, as with a full sweep).
+        int best_axis = -1, best_split = 0;
+        Float best_cost = infinity;
+        for (int a = 0; a < 3; ++a) {
+          if (!active_axis[a]) continue;
+          Float right_area[bin_count];
+          uint32_t right_n[bin_count];
+          BoxAcc acc;
+          uint32_t acc_n = 0;
+          Float acc_area = 0;
+          for (int i = bin_count - 1; i > 0; --i) {
+            if (bin_n[a][i] != 0) {
+              acc.grow(bin_b[a][i]);
+              acc_n += bin_n[a][i];
+              acc_area = acc.bounds().surface_area();
+            }
+            right_area[i] = acc_area;
+            right_n[i] = acc_n;
+          }
+          acc = BoxAcc{};
+          acc_n = 0;
+          for (int i = 0; i < bin_count - 1; ++i) {
+            if (bin_n[a][i] == 0) continue;
+            acc.grow(bin_b[a][i]);
+            acc_n += bin_n[a][i];
+            if (right_n[i + 1] == 0) continue;
+            Float cost = Float(acc_n) * acc.bounds().surface_area() + Float(right_n[i + 1]) * right_area[i + 1];
+            if (cost < best_cost) {
+              best_cost = cost;
+              best_axis = a;
+              best_split = i;
+            }
+          }
+        }
+
+        Float area = bb.surface_area();
+        Float leaf_cost = Float(n);
+        Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : Float(n));
+        if (best_axis < 0) {
+          // All centroids coincide: split in the middle if the leaf would be too big.
+          if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
+          mid = begin + n / 2;
+          lc = centroid_bounds(r, begin, mid, &lb);
+          rc = centroid_bounds(r, mid, end, &rb);
+        } else {
+          if (n <= uint32_t(opt.max_leaf_size) && leaf_cost <= split_cost) return make_leaf();
+          int a = best_axis;
+          BoxAcc lbox, rbox, lcen, rcen;
+          for (int i = 0; i < bin_count; ++i) {
+            if (bin_n[a][i] == 0) continue;
+            (i <= best_split ? lbox : rbox).grow(bin_b[a][i]);
+          }
+          // Partition with the swap sequence of libstdc++'s std::partition,
+          // gathering each side's centroid bounds on the way.
+#ifdef PRISM_BVH_SSE
+          auto left_side = [&](const PrimRef& p, BoxAcc& lcb, BoxAcc& rcb) {
+            __m128 l, h, c;
+            alignas(16) int bi[4];
+            _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(p, l, h, c));
+            bool left = bi[a] <= best_split;
+            (left ? lcb : rcb).grow(c, c);
+            return left;
+          };
+#else
+          auto left_side = [&](const PrimRef& p, BoxAcc& lcb, BoxAcc& rcb) {
+            Point3f c = p.bounds().centroid();
+            bool left = bin_of(c[a], lo[a], k[a]) <= best_split;
+            (left ? lcb : rcb).grow(Bounds3f(c));
+            return left;
+          };
+#endif
+          PrimRef* first = r + begin;
+          PrimRef* last = r + end;
+          for (;;) {
+            for (;;) {
+              if (first == last) goto partitioned;
+              if (!left_side(*first, lcen, rcen)) break;
+              ++first;
+            }
+            --last;
+            for (;;) {
+              if (first == last) goto partitioned;
+              if (left_side(*last, lcen, rcen)) break;
+              --last;
+            }
+            std::swap(*first, *last);
+            ++first;
+          }
+        partitioned:
+          mid = uint32_t(first - r);
+          lb = lbox.bounds();
+          rb = rbox.bounds();
+          lc = lcen.bounds();
+          rc = rcen.bounds();
+          if (mid == begin || mid == end) {
+            mid = begin + n / 2;
+            lc = centroid_bounds(r, begin, mid, &lb);
+            rc = centroid_bounds(r, mid, end, &rb);
           }
         }
       }
 
-      Float area = bb.surface_area();
-      Float leaf_cost = Float(n);
-      Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : Float(n));
-      uint32_t mid;
-      if (best_axis < 0) {
-        // All centroids coincide: split in the middle if the leaf would be too big.
-        if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
-        mid = begin + n / 2;
-      } else {
-        if (n <= uint32_t(opt.max_leaf_size) && leaf_cost <= split_cost) return make_leaf();
-        Float lo = cb.min[best_axis];
-        Float k = Float(bin_count) * (1 - 1e-6f) / (cb.max[best_axis] - lo);
-        uint32_t* m = std::partition(prims + begin, prims + end, [&](uint32_t p) {
-          return std::min(bin_count - 1, int((centroids[p][best_axis] - lo) * k)) <= best_split;
+      if (n >= parallel_threshold && active.fetch_add(1) < threads) {
+        // The right subtree on a new thread, into its own array; the left one
+        // here, in place.
+        std::vector<BVHNode> right;
+        auto task = std::async(std::launch::async, [&, mid, end, depth] {
+          detail::reserve_huge(right, 2 * size_t(end - mid));
+          build_range(mid, end, depth + 1, rb, rc, right);
+          --active;
         });
-        mid = uint32_t(m - prims);
-        if (mid == begin || mid == end) mid = begin + n / 2;
-      }
-
-      if (n >= parallel_threshold && spare_threads.fetch_sub(1) > 0) {
-        auto left = std::async(std::launch::async, [&, prims, begin, mid] { return build_range(prims, begin, mid, depth + 1); });
-        node->child[1] = build_range(prims, mid, end, depth + 1);
-        node->child[0] = left.get();
-        ++spare_threads;
+        build_range(begin, mid, depth + 1, lb, lc, out);
+        --active;  // idle while waiting
+        task.get();
+        ++active;
+        out[idx].offset = uint32_t(out.size());
+        append(right, out);
       } else {
-        if (n >= parallel_threshold) ++spare_threads;
-        node->child[0] = build_range(prims, begin, mid, depth + 1);
-        node->child[1] = build_range(prims, mid, end, depth + 1);
+        if (n >= parallel_threshold) --active;
+        build_range(begin, mid, depth + 1, lb, lc, out);
+        out[idx].offset = uint32_t(out.size());
+        build_range(mid, end, depth + 1, rb, rc, out);
       }
-      return node;
+    }
+
+    // Appends a subtree built in its own array, rebasing its interior offsets.
+    static void append(const std::vector<BVHNode>& sub, std::vector<BVHNode>& out) {
+      uint32_t base = uint32_t(out.size());
+      out.insert(out.end(), sub.begin(), sub.end());
+      for (size_t i = base; i < out.size(); ++i)
+        if (!out[i].is_leaf()) out[i].offset += base;
     }
   };
 
-  static void flatten(const BuildNode& b, std::vector<BVHNode>& out) {
-    size_t idx = out.size();
-    out.push_back({});
-    BVHNode& n = out[idx];
-    for (int i = 0; i < 3; ++i) {
-      n.bmin[i] = b.bounds.min[i];
-      n.bmax[i] = b.bounds.max[i];
+  // The children of the wide node for binary node `bin`: starting from its two
+  // children, the inner child with the largest surface area is replaced by its
+  // own children until there are wide_width of them, or only leaves.
+  int wide_children(uint32_t bin, uint32_t* kids) const {
+    constexpr int W = detail::wide_width;
+    if (m_nodes[bin].is_leaf()) {
+      kids[0] = bin;  // only for a tree that is a single leaf
+      return 1;
     }
-    if (!b.child[0]) {
-      out[idx].offset = b.first;
-      out[idx].count = b.count;
-      return;
+    Float area[W];
+    int k = 0;
+    auto add = [&](uint32_t c, int slot) {
+      kids[slot] = c;
+      area[slot] = m_nodes[c].is_leaf() ? -1 : m_nodes[c].bounds().surface_area();
+    };
+    add(bin + 1, k++);
+    add(m_nodes[bin].offset, k++);
+    while (k < W) {
+      int best = -1;
+      Float best_area = -1;
+      for (int i = 0; i < k; ++i) {
+        if (area[i] > best_area) {
+          best_area = area[i];
+          best = i;
+        }
+      }
+      if (best < 0) break;
+      uint32_t c = kids[best];
+      add(c + 1, best);
+      add(m_nodes[c].offset, k++);
     }
-    flatten(*b.child[0], out);
-    out[idx].offset = uint32_t(out.size());
-    out[idx].count = 0;
-    flatten(*b.child[1], out);
+    return k;
+  }
+
+  // Builds the wide node for binary node `bin` and, recursively, its subtree.
+  uint32_t collapse(uint32_t bin) {
+    constexpr int W = detail::wide_width;
+    uint32_t w = uint32_t(m_wide.size());
+    m_wide.emplace_back();
+    uint32_t kids[W];
+    int k = wide_children(bin, kids);
+    detail::BVHWideNode node;
+    for (int l = 0; l < W; ++l) {
+      for (int a = 0; a < 3; ++a) {
+        node.b[2 * W * a + l] = l < k ? m_nodes[kids[l]].bmin[a] : infinity;
+        node.b[2 * W * a + W + l] = l < k ? m_nodes[kids[l]].bmax[a] : -infinity;
+      }
+      node.child[l] = 0;
+      node.count[l] = 0;
+    }
+    for (int l = 0; l < k; ++l) {
+      const BVHNode& c = m_nodes[kids[l]];
+      if (c.is_leaf()) {
+        node.child[l] = c.offset;
+        node.count[l] = c.count;
+      } else {
+        node.child[l] = collapse(kids[l]);  // may reallocate m_wide
+        node.count[l] = detail::BVHWideNode::interior;
+      }
+    }
+    m_wide[w] = node;
+    return w;
   }
 
   std::vector<BVHNode> m_nodes;
   std::vector<uint32_t> m_prims;
+  std::vector<detail::BVHWideNode> m_wide;  // traversal layout, derived from m_nodes
 };
 
 }  // namespace prism

@@ -8,6 +8,16 @@
 #include "prism/geometry/sphere.hpp"
 #include "prism/geometry/triangle.hpp"
 
+// Inlines everything a function calls (the traversal loop, the callback and
+// the triangle test), so that per-ray constants fold into the loop.
+#ifndef PRISM_FLATTEN
+#if defined(__GNUC__) || defined(__clang__)
+#define PRISM_FLATTEN [[gnu::flatten]]
+#else
+#define PRISM_FLATTEN
+#endif
+#endif
+
 namespace prism {
 
 // A mesh's BVH with its triangles' vertices copied into leaf order, so that a
@@ -17,18 +27,23 @@ class MeshAccel {
   MeshAccel() = default;
   MeshAccel(const TriangleMesh& mesh, const BVHBuildOptions& opt) {
     size_t n = mesh.triangle_count();
-    std::vector<Bounds3f> b(n);
-    for (size_t i = 0; i < n; ++i) {
-      const Point3f& p0 = mesh.positions[mesh.indices[3 * i]];
-      b[i] = union_bounds(union_bounds(Bounds3f(p0), mesh.positions[mesh.indices[3 * i + 1]]),
-                          mesh.positions[mesh.indices[3 * i + 2]]);
-    }
-    m_bvh = BVH::build(b, opt);
+    const Point3f* p = mesh.positions.data();
+    const uint32_t* idx = mesh.indices.data();
+    m_bvh = BVH::build(
+        n,
+        [p, idx](size_t i) {
+          return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
+        },
+        opt);
+    detail::reserve_huge(m_verts, 3 * n);
     m_verts.resize(3 * n);
-    for (size_t k = 0; k < n; ++k) {
-      uint32_t t = m_bvh.prims()[k];
-      for (int j = 0; j < 3; ++j) m_verts[3 * k + size_t(j)] = mesh.positions[mesh.indices[3 * t + size_t(j)]];
-    }
+    int threads = detail::build_threads(opt.threads);
+    detail::parallel_chunks(n, detail::parallel_chunk_count(n, threads), [&](size_t begin, size_t end, int) {
+      for (size_t k = begin; k < end; ++k) {
+        uint32_t t = m_bvh.prims()[k];
+        for (size_t j = 0; j < 3; ++j) m_verts[3 * k + j] = p[idx[3 * size_t(t) + j]];
+      }
+    });
   }
 
   const BVH& bvh() const { return m_bvh; }
@@ -37,9 +52,45 @@ class MeshAccel {
   // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
   // (the triangle's index in the mesh).
   bool intersect(const Point3f& o, const Vector3f& d, Float* t_max, TriangleHit* hit, uint32_t* tri) const {
+    return intersect(o, d, detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, hit, tri);
+  }
+  // The same with the ray's box-test data already computed (SceneAccel traces
+  // a world-space ray through its top level and identity instances with one).
+  bool intersect(const Point3f& o, const Vector3f& d, const detail::WideRayPrecomp& wr, Float* t_max,
+                 TriangleHit* hit, uint32_t* tri) const {
     RayTrianglePrecomp pc(d);
+    switch (pc.kz) {
+      case 0: return intersect_axis<0>(o, wr, pc, t_max, hit, tri);
+      case 1: return intersect_axis<1>(o, wr, pc, t_max, hit, tri);
+      default: return intersect_axis<2>(o, wr, pc, t_max, hit, tri);
+    }
+  }
+  // Any hit before t_max, ignoring triangle `skip` (mesh index) if given.
+  bool occluded(const Point3f& o, const Vector3f& d, Float t_max, uint32_t skip = UINT32_MAX) const {
+    return occluded(o, d, detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, skip);
+  }
+  bool occluded(const Point3f& o, const Vector3f& d, const detail::WideRayPrecomp& wr, Float t_max,
+                uint32_t skip = UINT32_MAX) const {
+    RayTrianglePrecomp pc(d);
+    switch (pc.kz) {
+      case 0: return occluded_axis<0>(o, wr, pc, t_max, skip);
+      case 1: return occluded_axis<1>(o, wr, pc, t_max, skip);
+      default: return occluded_axis<2>(o, wr, pc, t_max, skip);
+    }
+  }
+
+ private:
+  // The queries for a ray whose largest direction component is KZ. The
+  // watertight test's axis permutation is then a compile-time constant, which
+  // the fully inlined test folds away; the arithmetic is unchanged.
+  template <int KZ>
+  PRISM_FLATTEN bool intersect_axis(const Point3f& o, const detail::WideRayPrecomp& wr, RayTrianglePrecomp pc,
+                                    Float* t_max, TriangleHit* hit, uint32_t* tri) const {
+    pc.kz = KZ;
+    pc.kx = (KZ + 1) % 3;
+    pc.ky = (KZ + 2) % 3;
     uint32_t best = 0;
-    bool found = m_bvh.intersect(o, d, *t_max, [&](uint32_t k, Float& tm) {
+    bool found = m_bvh.intersect(wr, *t_max, [&](uint32_t k, Float& tm) {
       auto h = intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]);
       if (!h) return false;
       tm = h->t;
@@ -50,16 +101,18 @@ class MeshAccel {
     if (found) *tri = m_bvh.prims()[best];
     return found;
   }
-  // Any hit before t_max, ignoring triangle `skip` (mesh index) if given.
-  bool occluded(const Point3f& o, const Vector3f& d, Float t_max, uint32_t skip = UINT32_MAX) const {
-    RayTrianglePrecomp pc(d);
-    return m_bvh.occluded(o, d, t_max, [&](uint32_t k, Float tm) {
+  template <int KZ>
+  PRISM_FLATTEN bool occluded_axis(const Point3f& o, const detail::WideRayPrecomp& wr, RayTrianglePrecomp pc,
+                                   Float t_max, uint32_t skip) const {
+    pc.kz = KZ;
+    pc.kx = (KZ + 1) % 3;
+    pc.ky = (KZ + 2) % 3;
+    return m_bvh.occluded(wr, t_max, [&](uint32_t k, Float tm) {
       if (skip != UINT32_MAX && m_bvh.prims()[k] == skip) return false;
       return intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]).has_value();
     });
   }
 
- private:
   BVH m_bvh;
   std::vector<Point3f> m_verts;
 };
@@ -115,11 +168,15 @@ class SceneAccel {
     BVHBuildOptions top = opt;
     top.max_leaf_size = 1;
     m_top = BVH::build(b, top);
+    m_lone_identity_mesh = m_instances.size() == 1 && m_instances[0].kind == Instance::Kind::mesh &&
+                           m_instances[0].identity;
   }
 
   std::optional<Hit> intersect(const Ray& ray, Float t_max = infinity) const {
+    if (m_top.empty()) return std::nullopt;
+    detail::WideRayPrecomp wr(RayBoxPrecomp(ray.o, ray.d));
     Hit best;
-    bool found = m_top.intersect(ray.o, ray.d, t_max, [&](uint32_t k, Float& tm) {
+    auto visit = [&](uint32_t k, Float& tm) {
       uint32_t inst_id = m_top.prims()[k];
       const Instance& in = m_instances[inst_id];
       if (in.kind == Instance::Kind::sphere) {
@@ -134,7 +191,7 @@ class SceneAccel {
       Float t_local = tm;
       bool h;
       if (in.identity) {
-        h = m_mesh_accels[in.geometry].intersect(ray.o, ray.d, &t_local, &th, &tri);
+        h = m_mesh_accels[in.geometry].intersect(ray.o, ray.d, wr, &t_local, &th, &tri);
       } else {
         Float dt;
         Ray r = transform_ray(inverse(in.object_to_world), ray, &dt);
@@ -146,7 +203,10 @@ class SceneAccel {
       tm = t_local;
       best = {t_local, th.b0, th.b1, th.b2, inst_id, tri};
       return true;
-    });
+    };
+    // A lone identity mesh instance needs no top level: its own BVH's boxes
+    // lie inside the top-level box, so that test would cull nothing more.
+    bool found = m_lone_identity_mesh ? visit(0, t_max) : m_top.intersect(wr, t_max, visit);
     if (!found) return std::nullopt;
     return best;
   }
@@ -155,7 +215,9 @@ class SceneAccel {
   // skip_primitive) is ignored: shadow rays pass their target's own surface.
   bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
                 uint32_t skip_primitive = UINT32_MAX) const {
-    return m_top.occluded(ray.o, ray.d, t_max, [&](uint32_t k, Float tm) {
+    if (m_top.empty()) return false;
+    detail::WideRayPrecomp wr(RayBoxPrecomp(ray.o, ray.d));
+    auto visit = [&](uint32_t k, Float tm) {
       uint32_t inst_id = m_top.prims()[k];
       const Instance& in = m_instances[inst_id];
       if (in.kind == Instance::Kind::sphere) {
@@ -163,11 +225,12 @@ class SceneAccel {
         return intersect_sphere(m_spheres[in.geometry], ray, tm).has_value();
       }
       uint32_t skip = inst_id == skip_instance ? skip_primitive : UINT32_MAX;
-      if (in.identity) return m_mesh_accels[in.geometry].occluded(ray.o, ray.d, tm, skip);
+      if (in.identity) return m_mesh_accels[in.geometry].occluded(ray.o, ray.d, wr, tm, skip);
       Float dt;
       Ray r = transform_ray(inverse(in.object_to_world), ray, &dt);
       return m_mesh_accels[in.geometry].occluded(r.o, r.d, tm - dt, skip);
-    });
+    };
+    return m_lone_identity_mesh ? visit(0, t_max) : m_top.occluded(wr, t_max, visit);
   }
 
   // The full surface description of a hit, in world space.
@@ -201,6 +264,7 @@ class SceneAccel {
   std::vector<Sphere> m_spheres;
   std::vector<Instance> m_instances;
   BVH m_top;
+  bool m_lone_identity_mesh = false;
 };
 
 }  // namespace prism
