@@ -58,6 +58,32 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
   return L;
 }
 
+// Continues a path by BSDF sampling: updates the throughput and eta scale,
+// spawns the next ray, and plays Russian roulette on the throughput with the
+// radiance scale of refraction removed (pbrt-v4 book, section 13.1.4). Returns
+// the sample, or nullopt when the path ends.
+template <class S, class BSDFT, class Sampler>
+std::optional<BSDFSample<S>> continue_path(const BSDFT& bsdf, const SurfaceInteraction& si, int depth,
+                                           const PathOptions& opt, Sampler& sampler, S& beta, Float& eta_scale,
+                                           Ray& ray) {
+  Float uc = sampler.get_1d();
+  Point2f u = sampler.get_2d();
+  auto bs = bsdf.sample(si.wo, uc, u);
+  if (!bs) return std::nullopt;
+  beta *= bs->f * (abs_dot(bs->wi, si.ns) / bs->pdf);
+  if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
+  ray = si.spawn_ray(bs->wi);
+  Float rr = beta.max_component() * eta_scale;
+  Float u_rr = sampler.get_1d();
+  if (depth >= opt.rr_min_depth && rr < 1) {
+    Float q = std::max(Float(0), 1 - rr);
+    if (u_rr < q) return std::nullopt;
+    beta = beta / (1 - q);
+  }
+  if (!beta.is_finite() || beta.is_black()) return std::nullopt;
+  return bs;
+}
+
 }  // namespace detail
 
 class PathIntegrator {
@@ -102,27 +128,11 @@ class PathIntegrator {
       if (is_non_specular(flags)) L += beta * sample_light(scene, *si, bsdf, lambda, sampler, counter);
       else { sampler.get_1d(); sampler.get_2d(); }  // keep the dimension count per vertex fixed
 
-      Float uc = sampler.get_1d();
-      Point2f u = sampler.get_2d();
-      auto bs = bsdf.sample(si->wo, uc, u);
+      prev = LightSampleContext(*si);
+      auto bs = detail::continue_path(bsdf, *si, depth, m_opt, sampler, beta, eta_scale, ray);
       if (!bs) break;
-      beta *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
       bsdf_pdf = bs->pdf;
       specular_bounce = bs->is_specular();
-      if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
-      prev = LightSampleContext(*si);
-      ray = si->spawn_ray(bs->wi);
-
-      // Russian roulette on the throughput with the radiance scale of
-      // refraction removed (pbrt-v4 book, section 13.1.4).
-      Float rr = beta.max_component() * eta_scale;
-      Float u_rr = sampler.get_1d();
-      if (depth >= m_opt.rr_min_depth && rr < 1) {
-        Float q = std::max(Float(0), 1 - rr);
-        if (u_rr < q) break;
-        beta = beta / (1 - q);
-      }
-      if (!beta.is_finite() || beta.is_black()) break;
     }
     return L;
   }
@@ -181,21 +191,7 @@ class BSDFPathIntegrator {
       if (depth == m_opt.max_depth) break;
       auto bsdf = scene.bsdf(*si, lambda);
       if (!any(bsdf.flags())) break;
-      Float uc = sampler.get_1d();
-      Point2f u = sampler.get_2d();
-      auto bs = bsdf.sample(si->wo, uc, u);
-      if (!bs) break;
-      beta *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
-      if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
-      ray = si->spawn_ray(bs->wi);
-      Float rr = beta.max_component() * eta_scale;
-      Float u_rr = sampler.get_1d();
-      if (depth >= m_opt.rr_min_depth && rr < 1) {
-        Float q = std::max(Float(0), 1 - rr);
-        if (u_rr < q) break;
-        beta = beta / (1 - q);
-      }
-      if (!beta.is_finite() || beta.is_black()) break;
+      if (!detail::continue_path(bsdf, *si, depth, m_opt, sampler, beta, eta_scale, ray)) break;
     }
     return L;
   }
