@@ -24,7 +24,7 @@ int main() {
 
   const int width = 320, height = 240;
   PerspectiveCamera camera(look_at_camera_to_world({0, 2, 6}, {0, 0.8f, 0}, {0, 1, 0}), radians(40), width, height);
-  RGBFilm film(width, height);
+  Film film(width, height);
   RenderOptions options;
   options.spp = 64;
   RenderStats stats = render(scene, camera, PathIntegrator{}, film, options);

@@ -65,29 +65,85 @@ class ProgressBar {
   std::chrono::steady_clock::time_point m_start;
 };
 
+// Everything after option parsing, for one colour model S.
+struct Job {
+  int width, height, spp, threads, max_depth;
+  uint64_t seed;
+  std::vector<std::string> outputs;
+  std::string integrator, filter;
+  bool quiet;
+};
+
+template <class S>
+int run(const Job& job, const char* model) {
+  using namespace prism;
+  Scene<S> scene;
+  try {
+    build_cornell_box(scene);
+    scene.build();
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
+  PerspectiveCamera camera = default_camera(job.width, job.height);
+  Film film(job.width, job.height);
+
+  std::signal(SIGINT, [](int) { g_cancel = true; });
+  ProgressBar bar(!job.quiet && ::isatty(STDERR_FILENO));
+  RenderOptions opt;
+  opt.spp = job.spp;
+  opt.seed = job.seed;
+  opt.threads = job.threads;
+  opt.cancel = &g_cancel;
+  opt.progress = [&](int done, int total) { bar.update(done, total); };
+  PathOptions popt;
+  popt.max_depth = job.max_depth;
+  auto go = [&](const auto& pixel_filter) {
+    return job.integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt, pixel_filter)
+                                    : render(scene, camera, PathIntegrator(popt), film, opt, pixel_filter);
+  };
+  RenderStats st = job.filter == "gaussian" ? go(GaussianFilter{}) : go(BoxFilter{});
+  Image img = to_image(film);
+  for (const auto& o : job.outputs) {
+    try {
+      write_image(o, img);
+    } catch (const Error& e) {
+      return fail(e.what());
+    }
+  }
+  int used_threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  std::printf(
+      "prism-render: %dx%d, %d spp, %s, %s, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu "
+      "dropped%s\n",
+      job.width, job.height, job.spp, model, job.integrator.c_str(), job.filter.c_str(), used_threads, st.seconds,
+      double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
+      st.cancelled ? " (cancelled)" : "");
+  return st.cancelled ? 130 : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"prism-render: physically based path tracing with prism"};
   std::string scene_path;
-  int width = 512, height = 512, spp = 64, threads = 0, max_depth = 64;
-  uint64_t seed = 0;
-  std::vector<std::string> outputs;
-  std::string integrator = "path", filter = "box";
-  bool quiet = false;
+  Job job{512, 512, 64, 0, 64, 0, {}, "path", "box", false};
+  bool spectral = false, rgb = false;
   app.add_option("scene", scene_path, "Scene file (glTF support arrives with the glTF module); default: built-in Cornell box");
-  app.add_option("--width", width, "Image width in pixels")->check(CLI::Range(1, 65536));
-  app.add_option("--height", height, "Image height in pixels")->check(CLI::Range(1, 65536));
-  app.add_option("--spp", spp, "Samples per pixel")->check(CLI::Range(1, 1 << 24));
-  app.add_option("--seed", seed, "Random seed");
-  app.add_option("--threads", threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 4096));
-  app.add_option("--max-depth", max_depth, "Maximum path depth")->check(CLI::Range(0, 1 << 20));
-  app.add_option("--out,-o", outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
-  app.add_option("--integrator", integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
+  app.add_option("--width", job.width, "Image width in pixels")->check(CLI::Range(1, 65536));
+  app.add_option("--height", job.height, "Image height in pixels")->check(CLI::Range(1, 65536));
+  app.add_option("--spp", job.spp, "Samples per pixel")->check(CLI::Range(1, 1 << 24));
+  app.add_option("--seed", job.seed, "Random seed");
+  app.add_option("--threads", job.threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 4096));
+  app.add_option("--max-depth", job.max_depth, "Maximum path depth")->check(CLI::Range(0, 1 << 20));
+  app.add_option("--out,-o", job.outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
+  app.add_option("--integrator", job.integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
       ->check(CLI::IsMember({"path", "bsdf"}));
-  app.add_option("--filter", filter, "Pixel filter: box (1 pixel) or gaussian (radius 1.5, sigma 0.5)")
+  app.add_option("--filter", job.filter, "Pixel filter: box (1 pixel) or gaussian (radius 1.5, sigma 0.5)")
       ->check(CLI::IsMember({"box", "gaussian"}));
-  app.add_flag("--quiet,-q", quiet, "No progress bar");
+  auto* spectral_flag = app.add_flag("--spectral", spectral,
+                                     "Spectral rendering (4 sampled wavelengths, XYZ film); default when the scene "
+                                     "uses dispersion or measured spectra");
+  app.add_flag("--rgb", rgb, "RGB rendering; default when the scene renders exactly in RGB")->excludes(spectral_flag);
+  app.add_flag("--quiet,-q", job.quiet, "No progress bar");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
@@ -101,47 +157,16 @@ int main(int argc, char** argv) {
   }
   if (!scene_path.empty())
     return fail("scene '" + scene_path + "': loading scene files is not supported yet (glTF loading is issue #6)");
-  if (outputs.empty()) outputs.push_back("default.png");
-  for (const auto& o : outputs)
+  if (job.outputs.empty()) job.outputs.push_back("default.png");
+  for (const auto& o : job.outputs)
     if (auto err = check_output(o); !err.empty()) return fail(err);
 
-  using namespace prism;
-  Scene<RGB> scene;
-  try {
-    build_cornell_box(scene);
-    scene.build();
-  } catch (const Error& e) {
-    return fail(e.what());
+  // The colour model: as asked, else the smallest that renders the scene
+  // exactly (RGB unless a material needs spectra; docs/spectral.md).
+  if (!spectral && !rgb) {
+    prism::Scene<prism::RGB> probe;
+    build_cornell_box(probe);
+    spectral = probe.needs_spectral();
   }
-  PerspectiveCamera camera = default_camera(width, height);
-  RGBFilm film(width, height);
-
-  std::signal(SIGINT, [](int) { g_cancel = true; });
-  ProgressBar bar(!quiet && ::isatty(STDERR_FILENO));
-  RenderOptions opt;
-  opt.spp = spp;
-  opt.seed = seed;
-  opt.threads = threads;
-  opt.cancel = &g_cancel;
-  opt.progress = [&](int done, int total) { bar.update(done, total); };
-  PathOptions popt;
-  popt.max_depth = max_depth;
-  auto run = [&](const auto& pixel_filter) {
-    return integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt, pixel_filter)
-                                : render(scene, camera, PathIntegrator(popt), film, opt, pixel_filter);
-  };
-  RenderStats st = filter == "gaussian" ? run(GaussianFilter{}) : run(BoxFilter{});
-  Image img = to_image(film);
-  for (const auto& o : outputs) {
-    try {
-      write_image(o, img);
-    } catch (const Error& e) {
-      return fail(e.what());
-    }
-  }
-  int used_threads = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  std::printf("prism-render: %dx%d, %d spp, %s, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu dropped%s\n",
-              width, height, spp, integrator.c_str(), filter.c_str(), used_threads, st.seconds, double(st.samples) / st.seconds * 1e-6,
-              double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped, st.cancelled ? " (cancelled)" : "");
-  return st.cancelled ? 130 : 0;
+  return spectral ? run<prism::Spectral>(job, "spectral") : run<prism::RGB>(job, "rgb");
 }

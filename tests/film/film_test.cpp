@@ -53,7 +53,7 @@ TEST_CASE("box filter offsets are uniform over the pixel", "[film][filter]") {
 }
 
 TEST_CASE("film accumulates means and the variance of the mean", "[film]") {
-  RGBFilm film(2, 1);
+  Film film(2, 1);
   const double vals[4] = {1, 2, 3, 6};
   for (double v : vals) film.add_sample(1, 0, RGB(Float(v)), 1);
   CHECK(film.pixel(1, 0).r == Approx(3.0));

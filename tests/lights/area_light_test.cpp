@@ -92,7 +92,7 @@ TEST_CASE("sphere light from outside: NEE with MIS agrees with BSDF sampling", "
   scene.add_sphere(Sphere{{-1, 2.5f, 1}, 0.4f}, grey, AreaEmission{RGB(10.f)});
   scene.build();
   PerspectiveCamera cam(look_at_camera_to_world({0, 1.5f, 4}, {0, 0.5f, 0}, {0, 1, 0}), radians(45), 32, 32);
-  RGBFilm a(32, 32), b(32, 32);
+  Film a(32, 32), b(32, 32);
   RenderOptions opt;
   opt.spp = 256;
   render(scene, cam, PathIntegrator{}, a, opt);

@@ -36,7 +36,7 @@ TEST_CASE("default scene is bitwise identical at 1 and 2 threads", "[render][det
   PerspectiveCamera cam = default_camera(w, h);
   std::string paths[2];
   for (int threads = 1; threads <= 2; ++threads) {
-    RGBFilm film(w, h);
+    Film film(w, h);
     RenderOptions opt;
     opt.spp = 8;
     opt.seed = 5;
@@ -56,7 +56,7 @@ TEST_CASE("a different seed gives a different image", "[render][determinism]") {
   build_cornell_box(scene);
   scene.build();
   PerspectiveCamera cam = default_camera(32, 32);
-  RGBFilm a(32, 32), b(32, 32);
+  Film a(32, 32), b(32, 32);
   RenderOptions opt;
   opt.spp = 4;
   render(scene, cam, PathIntegrator{}, a, opt);
@@ -71,7 +71,7 @@ TEST_CASE("non-finite samples are dropped and counted, never written", "[render]
   scene.build();
   const int w = 32, h = 32;
   PerspectiveCamera cam = default_camera(w, h);
-  RGBFilm film(w, h);
+  Film film(w, h);
   RenderOptions opt;
   opt.spp = 4;
   RenderStats st = render(scene, cam, PoisonIntegrator{}, film, opt);
@@ -90,7 +90,7 @@ TEST_CASE("rendering stops when cancelled and reports progress", "[render]") {
   build_cornell_box(scene);
   scene.build();
   PerspectiveCamera cam = default_camera(64, 64);
-  RGBFilm film(64, 64);
+  Film film(64, 64);
   std::atomic<bool> cancel{false};
   int last_done = 0, total_seen = 0;
   RenderOptions opt;

@@ -28,9 +28,11 @@ class BSDF {
   BSDF(const Frame& shading, bxdf_variant b) : m_frame(shading), m_bxdf(std::move(b)) {}
 
   // Builds the BxDF for a material at a hit. The material variant's index I
-  // selects the set's I-th BxDF, built by bxdf_traits<BxDF_I>::make.
+  // selects the set's I-th BxDF, built by bxdf_traits<BxDF_I>::make. lambda is
+  // passed on as a non-const lvalue when the caller's is one: a dispersive BxDF
+  // terminates the secondary wavelengths through it.
   template <class W>
-  static BSDF from_material(const typename Set::material_variant& m, const SurfaceInteraction& si, const W& lambda) {
+  static BSDF from_material(const typename Set::material_variant& m, const SurfaceInteraction& si, W&& lambda) {
     return BSDF(si.shading_frame(), make_bxdf(m, si, lambda, std::make_index_sequence<Set::size>{}));
   }
 
@@ -64,7 +66,7 @@ class BSDF {
 
  private:
   template <class W, size_t... I>
-  static bxdf_variant make_bxdf(const typename Set::material_variant& m, const SurfaceInteraction& si, const W& lambda,
+  static bxdf_variant make_bxdf(const typename Set::material_variant& m, const SurfaceInteraction& si, W& lambda,
                                 std::index_sequence<I...>) {
     bxdf_variant out;
     ((m.index() == I ? (out.template emplace<I>(bxdf_traits<typename Set::template bxdf<I>>::make(

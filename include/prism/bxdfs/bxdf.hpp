@@ -76,6 +76,12 @@ concept BxDFLike = requires(const B& b, Vector3f w, Float uc, Point2f u, Transpo
 //   using material_type = MyParams;               // unique per BxDF in a set
 //   template <class W> static MyBxDF make(const MyParams&, const SurfaceInteraction&, const W& lambda);
 // and render with a set that includes it (bxdf_set<...>::with<MyBxDF>).
+// Optional members:
+//   static void validate(const MyParams&, std::string_view where);  // throw prism::Error on bad input
+//   static bool needs_spectral(const MyParams&);  // true if RGB cannot render it exactly
+//                                                 // (dispersion, measured spectra)
+// A BxDF whose make() takes `W& lambda` (non-const) may call
+// lambda.terminate_secondary() in spectral mode (dispersion).
 template <class B> struct bxdf_traits;
 
 }  // namespace prism

@@ -1,37 +1,61 @@
-// prism/film/film.hpp — RGB film: per pixel, the weighted sum of sample values
+// prism/film/film.hpp — the film: per pixel, the weighted sum of sample values
 // and of their squares, so that both the estimate and its variance are known.
-// Each pixel is written by one thread at a time (the tile that owns it), in a
-// fixed sample order, so the result does not depend on the thread count.
+// In RGB mode it accumulates linear sRGB; in spectral mode CIE XYZ, turned into
+// linear sRGB when read. (The squares are kept in linear sRGB in both modes, so
+// that variance() is per output channel.) Each pixel is written by one thread
+// at a time (the tile that owns it), in a fixed sample order, so the result
+// does not depend on the thread count.
 #pragma once
+#include <string>
 #include <vector>
-#include "prism/spectra/rgb.hpp"
+#include "prism/error.hpp"
+#include "prism/spectra/spectrum.hpp"
 
 namespace prism {
 
-class RGBFilm {
+// What a film accumulates: linear sRGB (RGB rendering) or CIE XYZ (spectral).
+enum class FilmEncoding { rgb, xyz };
+
+class Film {
  public:
-  RGBFilm() = default;
-  RGBFilm(int width, int height) : m_width(width), m_height(height), m_pixels(size_t(width) * size_t(height)) {}
+  Film() = default;
+  Film(int width, int height, FilmEncoding enc = FilmEncoding::rgb)
+      : m_width(width), m_height(height), m_encoding(enc), m_pixels(size_t(width) * size_t(height)) {}
 
   int width() const { return m_width; }
   int height() const { return m_height; }
+  FilmEncoding encoding() const { return m_encoding; }
 
-  void add_sample(int x, int y, const RGB& L, Float weight) {
+  // Called by the renderer before it adds samples: an empty film takes the
+  // colour model's encoding; a film that already holds samples of the other
+  // encoding cannot be continued.
+  void prepare(FilmEncoding enc) {
+    if (enc == m_encoding) return;
+    for (const Pixel& p : m_pixels)
+      if (p.count != 0)
+        throw Error(std::string("film: holds ") + (m_encoding == FilmEncoding::rgb ? "RGB" : "XYZ") +
+                    " samples; cannot add " + (enc == FilmEncoding::rgb ? "RGB" : "XYZ") + " samples to it");
+    m_encoding = enc;
+  }
+
+  // Adds a sample in the film's encoding (linear sRGB, or XYZ as x, y, z).
+  void add_sample(int x, int y, const RGB& v, Float weight) {
     Pixel& p = m_pixels[index(x, y)];
+    RGB out = m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({v.r, v.g, v.b}) : v;
     for (int c = 0; c < 3; ++c) {
-      double v = double(L[c]);
-      p.sum[c] += double(weight) * v;
-      p.sum_sq[c] += double(weight) * v * v;
+      p.sum[c] += double(weight) * double(v[c]);
+      p.sum_sq[c] += double(weight) * double(out[c]) * double(out[c]);
     }
     p.weight += double(weight);
     p.count += 1;
   }
 
-  // The pixel's estimate: sum(w L) / sum(w).
+  // The pixel's estimate in linear sRGB: sum(w L) / sum(w).
   RGB pixel(int x, int y) const {
     const Pixel& p = m_pixels[index(x, y)];
     if (p.weight == 0) return {};
-    return {Float(p.sum[0] / p.weight), Float(p.sum[1] / p.weight), Float(p.sum[2] / p.weight)};
+    RGB v{Float(p.sum[0] / p.weight), Float(p.sum[1] / p.weight), Float(p.sum[2] / p.weight)};
+    return m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({v.r, v.g, v.b}) : v;
   }
   // Estimated variance of the pixel's estimate (the sample variance of the
   // weighted values divided by the sample count).
@@ -39,8 +63,9 @@ class RGBFilm {
     const Pixel& p = m_pixels[index(x, y)];
     if (p.count < 2 || p.weight == 0) return {};
     RGB v;
+    RGB m = pixel(x, y);
     for (int c = 0; c < 3; ++c) {
-      double mean = p.sum[c] / p.weight;
+      double mean = double(m[c]);
       double var = std::max(0.0, p.sum_sq[c] / p.weight - mean * mean) * double(p.count) / double(p.count - 1);
       v[c] = Float(var / double(p.count));
     }
@@ -70,6 +95,7 @@ class RGBFilm {
   size_t index(int x, int y) const { return size_t(y) * size_t(m_width) + size_t(x); }
 
   int m_width = 0, m_height = 0;
+  FilmEncoding m_encoding = FilmEncoding::rgb;
   std::vector<Pixel> m_pixels;
 };
 

@@ -93,7 +93,7 @@ class PathIntegrator {
   const PathOptions& options() const { return m_opt; }
 
   template <class Scene, class Sampler, class W>
-  typename Scene::spectrum_type Li(const Scene& scene, Ray ray, const W& lambda, Sampler& sampler,
+  typename Scene::spectrum_type Li(const Scene& scene, Ray ray, W& lambda, Sampler& sampler,
                                    RayCounter& counter) const {
     using S = typename Scene::spectrum_type;
     S L{}, beta(1);
@@ -175,7 +175,7 @@ class BSDFPathIntegrator {
   const PathOptions& options() const { return m_opt; }
 
   template <class Scene, class Sampler, class W>
-  typename Scene::spectrum_type Li(const Scene& scene, Ray ray, const W& lambda, Sampler& sampler,
+  typename Scene::spectrum_type Li(const Scene& scene, Ray ray, W& lambda, Sampler& sampler,
                                    RayCounter& counter) const {
     using S = typename Scene::spectrum_type;
     S L{}, beta(1);

@@ -30,11 +30,6 @@ inline void check_image(const Image& img, const std::string& path) {
 }
 }  // namespace detail
 
-// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
-inline float srgb_encode(float v) {
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1 / 2.4f) - 0.055f;
-}
-
 inline void write_png(const std::string& path, const Image& img, float exposure = 1) {
   detail::check_image(img, path);
   std::vector<unsigned char> px(img.rgb.size());
@@ -109,7 +104,7 @@ inline Image read_pfm(const std::string& path) {
   return img;
 }
 
-inline Image to_image(const RGBFilm& film) { return {film.width(), film.height(), film.rgb_buffer()}; }
+inline Image to_image(const Film& film) { return {film.width(), film.height(), film.rgb_buffer()}; }
 
 // Writes by extension: .png, .exr or .pfm.
 inline void write_image(const std::string& path, const Image& img) {

@@ -42,9 +42,47 @@ inline PerspectiveCamera default_camera(int width, int height, const DefaultScen
   return PerspectiveCamera(look_at_camera_to_world(d.eye, d.target, d.up), d.fov_y, width, height);
 }
 
-// Fills a scene whose BxDF set includes DiffuseBxDF.
+struct CornellBoxOptions {
+  AreaEmission light{RGB(17.f, 12.f, 4.f), 1.f, false};  // the ceiling light
+  // An SF11 glass prism hanging from the ceiling in the beam of a slit lamp on
+  // the left wall: the prism spreads the lamp's white light into a spectrum on
+  // the back wall (in spectral mode; RGB mode refracts at the d line only).
+  bool prism = true;
+  AreaEmission slit{RGB(1.f), 400.f, false};
+};
+
+// A right prism whose cross-section is the triangle a, b, c in the xz-plane,
+// from y0 to y1, with outward-facing triangles.
+inline TriangleMesh make_triangular_prism(Point2f a, Point2f b, Point2f c, Float y0, Float y1) {
+  TriangleMesh m;
+  Point3f lo[3] = {{a.x, y0, a.y}, {b.x, y0, b.y}, {c.x, y0, c.y}};
+  Point3f hi[3] = {{a.x, y1, a.y}, {b.x, y1, b.y}, {c.x, y1, c.y}};
+  // Orient the base so that a, b, c run clockwise seen from +y (normal -y below).
+  Vector3f n = cross(lo[1] - lo[0], lo[2] - lo[0]);
+  if (n.y > 0) {
+    std::swap(lo[1], lo[2]);
+    std::swap(hi[1], hi[2]);
+  }
+  m.positions = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+  m.indices = {0, 1, 2, 3, 5, 4};  // bottom (-y), top (+y)
+  // Sides: two triangles each, wound so that the normal points away from the axis.
+  Point3f centre = lo[0] + (Vector3f(lo[1]) + Vector3f(lo[2]) - 2 * Vector3f(lo[0])) / 3;
+  for (uint32_t i = 0; i < 3; ++i) {
+    uint32_t j = (i + 1) % 3;
+    Vector3f side_n = cross(lo[j] - lo[i], hi[i] - lo[i]);
+    if (dot(side_n, lo[i] - centre) > 0)
+      m.indices.insert(m.indices.end(), {i, j, j + 3, i, j + 3, i + 3});
+    else
+      m.indices.insert(m.indices.end(), {i, j + 3, j, i, i + 3, j + 3});
+  }
+  return m;
+}
+
+// Fills a scene whose BxDF set includes DiffuseBxDF (and DielectricBxDF when
+// opt.prism is set, as default_bxdf_set does).
 template <class Scene>
-void build_cornell_box(Scene& scene, const AreaEmission& light = {RGB(17.f, 12.f, 4.f), 1.f, false}) {
+void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
+  const AreaEmission& light = opt.light;
   uint32_t white = scene.add_material(DiffuseMaterial{RGB(0.73f, 0.73f, 0.73f)});
   uint32_t red = scene.add_material(DiffuseMaterial{RGB(0.65f, 0.05f, 0.05f)});
   uint32_t green = scene.add_material(DiffuseMaterial{RGB(0.12f, 0.45f, 0.15f)});
@@ -72,6 +110,31 @@ void build_cornell_box(Scene& scene, const AreaEmission& light = {RGB(17.f, 12.f
   scene.add_instance(box, white, translate({-0.35f, 0, -0.3f}) * rotate(radians(18), {0, 1, 0}));
   // A sphere on the floor at the front right.
   scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, white);
+
+  if (!opt.prism) return;
+  // The slit lamp: a narrow vertical emitter on the left wall at the back of a
+  // short black tube, so that its light leaves as a beam along +x.
+  const Float zs = 0.55f, half_w = 0.02f, y0 = -0.6f, y1 = 0.95f, depth = 0.12f;
+  TriangleMesh slit;
+  append_quad(slit, {-0.999f, y0, zs - half_w}, {0, y1 - y0, 0}, {0, 0, 2 * half_w});  // normal +x
+  scene.add_mesh_instance(std::move(slit), black, opt.slit);
+  TriangleMesh tube;
+  append_quad(tube, {-1, y0, zs - half_w}, {depth, 0, 0}, {0, y1 - y0, 0});
+  append_quad(tube, {-1, y0, zs + half_w}, {0, y1 - y0, 0}, {depth, 0, 0});
+  append_quad(tube, {-1, y0, zs - half_w}, {0, 0, 2 * half_w}, {depth, 0, 0});
+  append_quad(tube, {-1, y1, zs - half_w}, {depth, 0, 0}, {0, 0, 2 * half_w});
+  scene.add_mesh_instance(std::move(tube), black);
+  // The prism: apex angle 60 degrees, side 0.36, its cross-section turned so
+  // that the beam meets the first face at a steep angle and leaves towards the
+  // back wall.
+  uint32_t glass = scene.add_material(DielectricMaterial{SellmeierIOR::glass("N-SF11"), "SF11 glass prism"});
+  const Float side = 0.36f, r = side / std::sqrt(3.f), turn = radians(-28), cx = -0.25f, cz = 0.5f;
+  Point2f v[3];
+  for (int i = 0; i < 3; ++i) {
+    Float a = radians(90 + 120 * Float(i)) + turn;
+    v[i] = {cx + r * std::cos(a), cz + r * std::sin(a)};
+  }
+  scene.add_mesh_instance(make_triangular_prism(v[0], v[1], v[2], -0.65f, 0.999f), glass);
 }
 
 }  // namespace prism

@@ -37,11 +37,12 @@ struct RenderStats {
 };
 
 template <class Scene, class Integrator, class Filter = BoxFilter>
-RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const Integrator& integrator, RGBFilm& film,
+RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const Integrator& integrator, Film& film,
                    const RenderOptions& opt, const Filter& filter = Filter{}) {
   using S = typename Scene::spectrum_type;
   using traits = spectrum_traits<S>;
   auto start = std::chrono::steady_clock::now();
+  film.prepare(traits::film_xyz ? FilmEncoding::xyz : FilmEncoding::rgb);
   const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, tiles = tiles_x * tiles_y;
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -77,13 +78,13 @@ RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const In
             cs.p_lens = sampler.get_2d();
             Ray ray = camera.generate_ray(cs);
             S L = integrator.Li(scene, ray, lambda, sampler, counter);
-            RGB rgb = traits::to_rgb(L, lambda);
+            RGB v = traits::to_film(L, lambda);  // linear sRGB, or XYZ in spectral mode
             ++my_samples;
-            if (!rgb.is_finite()) {
+            if (!v.is_finite()) {
               ++my_dropped;
               continue;
             }
-            film.add_sample(x, y, rgb, fs.weight);
+            film.add_sample(x, y, v, fs.weight);
           }
       int d = ++done;
       if (opt.progress) {

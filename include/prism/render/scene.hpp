@@ -9,6 +9,7 @@
 #include <vector>
 #include "prism/accel/scene_accel.hpp"
 #include "prism/bxdfs/bsdf.hpp"
+#include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/diffuse.hpp"
 #include "prism/error.hpp"
 #include "prism/lights/area.hpp"
@@ -18,7 +19,7 @@
 namespace prism {
 
 template <class S>
-using default_bxdf_set = bxdf_set<DiffuseBxDF<S>>;
+using default_bxdf_set = bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>>;
 
 template <class S>
 using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>>;
@@ -64,6 +65,8 @@ class Scene {
       if (!(s.radius > 0) || !std::isfinite(s.radius) || s.center.has_nan())
         throw Error("scene: sphere " + std::to_string(i) + ": radius must be positive and finite, centre finite");
     }
+    for (size_t i = 0; i < m_materials.size(); ++i)
+      std::visit([&](const auto& p) { validate_material(p, "scene: material " + std::to_string(i)); }, m_materials[i]);
     for (size_t i = 0; i < m_info.size(); ++i) {
       if (m_info[i].material < 0 || size_t(m_info[i].material) >= m_materials.size())
         throw Error("scene: instance " + std::to_string(i) + ": material index " + std::to_string(m_info[i].material) +
@@ -122,8 +125,16 @@ class Scene {
   }
 
   template <class W>
-  bsdf_type bsdf(const SurfaceInteraction& si, const W& lambda) const {
+  bsdf_type bsdf(const SurfaceInteraction& si, W&& lambda) const {
     return bsdf_type::from_material(m_materials[size_t(si.material)], si, lambda);
+  }
+
+  // True if a material cannot be rendered exactly in RGB (dispersion, measured
+  // spectra): the colour model a front end should choose without being told.
+  bool needs_spectral() const {
+    for (const auto& m : m_materials)
+      if (std::visit([](const auto& p) { return material_needs_spectral(p); }, m)) return true;
+    return false;
   }
 
   const std::vector<light_type>& lights() const { return m_lights; }
@@ -133,6 +144,24 @@ class Scene {
   Bounds3f bounds() const { return m_accel.bounds(); }
 
  private:
+  // The BxDF whose material type is P (material types are unique in a set).
+  template <class P, size_t I = 0>
+  static constexpr size_t bxdf_index_of() {
+    if constexpr (std::is_same_v<std::variant_alternative_t<I, material_type>, P>) return I;
+    else return bxdf_index_of<P, I + 1>();
+  }
+  template <class P>
+  using traits_of = bxdf_traits<typename Set::template bxdf<bxdf_index_of<P>()>>;
+  template <class P>
+  static bool material_needs_spectral(const P& p) {
+    if constexpr (requires { traits_of<P>::needs_spectral(p); }) return traits_of<P>::needs_spectral(p);
+    else return false;
+  }
+  template <class P>
+  static void validate_material(const P& p, const std::string& where) {
+    if constexpr (requires { traits_of<P>::validate(p, where); }) traits_of<P>::validate(p, where);
+  }
+
   static void validate_mesh(const TriangleMesh& m, size_t id) {
     std::string where = "scene: mesh " + std::to_string(id) + ": ";
     if (m.indices.size() % 3 != 0) throw Error(where + "index count is not a multiple of 3");

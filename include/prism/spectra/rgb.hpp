@@ -55,8 +55,8 @@ struct RGBWavelengths {
 };
 
 // spectrum_traits<S>: is_spectral, size, wavelengths_type, and the edge
-// conversions (from an RGB parameter to S, from S to film RGB). The spectral
-// issue specialises it for SampledSpectrum<N>.
+// conversions (from an RGB parameter to S, from S to what the film
+// accumulates). spectra/traits.hpp specialises it for SampledSpectrum<N>.
 template <class S> struct spectrum_traits;
 
 template <> struct spectrum_traits<RGB> {
@@ -72,8 +72,9 @@ template <> struct spectrum_traits<RGB> {
   static RGB illuminant(const RGB& c, const wavelengths_type&) { return c; }
   // Unbounded RGB quantity (e.g. a scale).
   static RGB unbounded(const RGB& c, const wavelengths_type&) { return c; }
-  // The film's RGB from a path's radiance estimate.
-  static RGB to_rgb(const RGB& c, const wavelengths_type&) { return c; }
+  // What the film accumulates (linear sRGB here) from a path's radiance estimate.
+  static constexpr bool film_xyz = false;
+  static RGB to_film(const RGB& c, const wavelengths_type&) { return c; }
 };
 
 template <class S> inline constexpr bool is_spectral_v = spectrum_traits<S>::is_spectral;
