@@ -2,10 +2,25 @@
 // lens. Camera space: +x right, +y up, +z forward. Raster space: x right, y
 // down, in pixels. fov_y is the vertical field of view (as glTF's yfov).
 #pragma once
+#include <optional>
 #include "prism/geometry/ray.hpp"
+#include "prism/math/transform.hpp"
 #include "prism/sampling/warps.hpp"
 
 namespace prism {
+
+// Where a world point appears to the camera, for tracing paths from the lights
+// (light tracing): the raster position, the (sampled) lens point it is joined
+// to, and the camera's importance factor for that connection.
+struct CameraConnection {
+  Point2f p_raster;  // pixels
+  Point3f p_lens;    // world space
+  // 1 / (cos^3(theta) * s_x * s_y): raster area per unit solid angle at the lens
+  // point, with theta the angle to the optical axis and s_x, s_y the size of a
+  // pixel on the plane at distance 1. A light path's contribution to its pixel
+  // is beta * f * |cos at the point| / distance^2 * importance (docs/caustics.md).
+  Float importance = 0;
+};
 
 struct CameraSample {
   Point2f p_film;  // raster position, pixels
@@ -42,6 +57,36 @@ class PerspectiveCamera {
       d = normalize(focus - o);
     }
     return Ray{m_to_world(o), normalize(m_to_world(d)), s.time};
+  }
+
+  // Joins the world point p to a lens point (u_lens picks it when the lens has
+  // an aperture) and finds the pixel whose camera ray would see p that way.
+  // nullopt when p is behind the camera or outside the film.
+  std::optional<CameraConnection> connect(const Point3f& p, Point2f u_lens) const {
+    Point3f pc = inverse(m_to_world)(p);
+    Point3f lens{0, 0, 0};
+    if (m_lens_radius > 0) {
+      Point2f l = sample_uniform_disk_concentric(u_lens) * m_lens_radius;
+      lens = Point3f{l.x, l.y, 0};
+    }
+    Vector3f v = pc - lens;
+    if (!(v.z > 0)) return std::nullopt;
+    // The point on the plane z = 1 of the pinhole ray that sees the same
+    // point of the plane of focus (for a pinhole: simply v / v.z).
+    Float fx, fy;
+    if (m_lens_radius > 0) {
+      Float t = m_focal_distance / v.z;
+      fx = (lens.x + v.x * t) / m_focal_distance;
+      fy = (lens.y + v.y * t) / m_focal_distance;
+    } else {
+      fx = v.x / v.z;
+      fy = v.y / v.z;
+    }
+    Point2f raster{(fx / (m_tan_half * m_aspect) + 1) * Float(m_width) / 2, (1 - fy / m_tan_half) * Float(m_height) / 2};
+    if (!(raster.x >= 0 && raster.x < Float(m_width) && raster.y >= 0 && raster.y < Float(m_height))) return std::nullopt;
+    Float cos_theta = v.z / length(v);
+    Float sx = 2 * m_tan_half * m_aspect / Float(m_width), sy = 2 * m_tan_half / Float(m_height);
+    return CameraConnection{raster, m_to_world(lens), 1 / (cos_theta * cos_theta * cos_theta * sx * sy)};
   }
 
  private:

@@ -50,20 +50,32 @@ class Film {
     p.count += 1;
   }
 
-  // The pixel's estimate in linear sRGB: sum(w L) / sum(w).
+  // Adds splatted values (light tracing), one triple per pixel in the film's
+  // encoding, each multiplied by scale; they add to the pixels' estimates.
+  void add_splats(const std::vector<double>& values, double scale) {
+    if (values.size() != m_pixels.size() * 3) throw Error("film: splat buffer size does not match the film");
+    if (m_splat.empty()) m_splat.assign(values.size(), 0.0);
+    for (size_t i = 0; i < values.size(); ++i) m_splat[i] += values[i] * scale;
+  }
+
+  // The pixel's estimate in linear sRGB: sum(w L) / sum(w), plus splats.
   RGB pixel(int x, int y) const {
     const Pixel& p = m_pixels[index(x, y)];
-    if (p.weight == 0) return {};
-    RGB v{Float(p.sum[0] / p.weight), Float(p.sum[1] / p.weight), Float(p.sum[2] / p.weight)};
-    return m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({v.r, v.g, v.b}) : v;
+    double v[3] = {0, 0, 0};
+    if (p.weight > 0)
+      for (int c = 0; c < 3; ++c) v[c] = p.sum[c] / p.weight;
+    if (!m_splat.empty())
+      for (int c = 0; c < 3; ++c) v[c] += m_splat[index(x, y) * 3 + size_t(c)];
+    RGB out{Float(v[0]), Float(v[1]), Float(v[2])};
+    return m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({out.r, out.g, out.b}) : out;
   }
   // Estimated variance of the pixel's estimate (the sample variance of the
-  // weighted values divided by the sample count).
+  // weighted values divided by the sample count). Splats are not included.
   RGB variance(int x, int y) const {
     const Pixel& p = m_pixels[index(x, y)];
     if (p.count < 2 || p.weight == 0) return {};
     RGB v;
-    RGB m = pixel(x, y);
+    RGB m = camera_pixel(x, y);
     for (int c = 0; c < 3; ++c) {
       double mean = double(m[c]);
       double var = std::max(0.0, p.sum_sq[c] / p.weight - mean * mean) * double(p.count) / double(p.count - 1);
@@ -84,9 +96,20 @@ class Film {
       }
     return out;
   }
-  void clear() { std::fill(m_pixels.begin(), m_pixels.end(), Pixel{}); }
+  void clear() {
+    std::fill(m_pixels.begin(), m_pixels.end(), Pixel{});
+    m_splat.clear();
+  }
 
  private:
+  // The camera samples' estimate alone, in linear sRGB.
+  RGB camera_pixel(int x, int y) const {
+    const Pixel& p = m_pixels[index(x, y)];
+    if (p.weight == 0) return {};
+    RGB v{Float(p.sum[0] / p.weight), Float(p.sum[1] / p.weight), Float(p.sum[2] / p.weight)};
+    return m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({v.r, v.g, v.b}) : v;
+  }
+
   struct Pixel {
     double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
     double weight = 0;
@@ -97,6 +120,7 @@ class Film {
   int m_width = 0, m_height = 0;
   FilmEncoding m_encoding = FilmEncoding::rgb;
   std::vector<Pixel> m_pixels;
+  std::vector<double> m_splat;  // empty unless something was splatted
 };
 
 }  // namespace prism

@@ -7,6 +7,19 @@
 // hits a light. It is simpler and serves as the reference the MIS estimator
 // must agree with.
 // Both are unbiased for the same max_depth; both count the rays they trace.
+//
+// Caustics. A path that leaves the camera, meets a non-specular surface, then
+// only specular ones (glass, mirrors) and ends on an area light is a caustic
+// that next-event estimation cannot reach: BSDF sampling must hit the light
+// through the specular chain, which is hopeless for small lights. When a scene
+// has specular materials and area lights, PathIntegrator therefore leaves
+// exactly those paths (camera - first vertex non-specular - one or more
+// specular vertices - area light) to a light-tracing pass: paths start on the
+// lights, follow specular scattering, and at the first non-specular vertex are
+// joined to the camera and splatted onto the film (trace_caustic_path; the
+// renderer runs it). The two sets of paths are disjoint and together cover
+// every path, so the sum is unbiased; docs/caustics.md has the derivation.
+// PathOptions::light_traced_caustics = false turns the split off.
 #pragma once
 #include <cstdint>
 #include "prism/lights/light.hpp"
@@ -17,6 +30,7 @@ namespace prism {
 struct PathOptions {
   int max_depth = 64;       // maximum number of scattering events
   int rr_min_depth = 1;     // Russian roulette from this depth on (0-based)
+  bool light_traced_caustics = true;  // see the file comment
 };
 
 struct RayCounter {
@@ -100,6 +114,10 @@ class PathIntegrator {
     bool specular_bounce = false;
     Float bsdf_pdf = 1, eta_scale = 1;
     LightSampleContext prev;
+    // True while the path is camera - non-specular first vertex - specular
+    // vertices only: its emission then belongs to the light-tracing pass.
+    const bool split = caustics_active(scene);
+    bool caustic_chain = false;
     for (int depth = 0;; ++depth) {
       ++counter.rays;
       auto si = scene.intersect(ray);
@@ -110,7 +128,7 @@ class PathIntegrator {
       // Emission hit by the path: weighed against the light sample that could
       // have found it at the previous vertex.
       S Le = detail::emitted(scene, *si, lambda);
-      if (!Le.is_black()) {
+      if (!Le.is_black() && !(caustic_chain && depth >= 2)) {
         if (depth == 0 || specular_bounce) {
           L += beta * Le;
         } else {
@@ -133,8 +151,82 @@ class PathIntegrator {
       if (!bs) break;
       bsdf_pdf = bs->pdf;
       specular_bounce = bs->is_specular();
+      caustic_chain = split && (depth == 0 ? !specular_bounce : caustic_chain && specular_bounce);
     }
     return L;
+  }
+
+  // Whether this integrator leaves caustic paths to trace_caustic_path for
+  // this scene (it does when the scene has specular materials and area lights).
+  template <class Scene>
+  bool caustics_active(const Scene& scene) const {
+    return m_opt.light_traced_caustics && scene.has_specular() && scene.has_area_lights();
+  }
+
+  // One light path of the caustic pass: from a light through specular
+  // vertices; at each later vertex with a non-specular part, a connection to
+  // the camera, passed to splat(raster position, value in the film's encoding).
+  // Uses TransportMode::importance along the path (the BxDFs' adjoint).
+  template <class Scene, class Camera, class Sampler, class Splat>
+  void trace_caustic_path(const Scene& scene, const Camera& camera, Sampler& sampler, RayCounter& counter,
+                          Splat&& splat) const {
+    using S = typename Scene::spectrum_type;
+    using traits = spectrum_traits<S>;
+    auto lambda = traits::sample_wavelengths(sampler.get_1d());
+    auto sl = scene.light_sampler().sample(sampler.get_1d());
+    Point2f u_pos = sampler.get_2d(), u_dir = sampler.get_2d();
+    Float u_side = sampler.get_1d();
+    if (!sl) return;
+    auto le = std::visit(
+        [&](const auto& l) -> std::optional<LightLeSample<S>> {
+          if constexpr (requires { l.sample_le(u_pos, u_dir, u_side, lambda); })
+            return l.sample_le(u_pos, u_dir, u_side, lambda);
+          else
+            return std::nullopt;
+        },
+        scene.lights()[sl->index]);
+    if (!le || le->L.is_black()) return;
+    S beta = le->L * (abs_dot(le->n, le->ray.d) / (sl->pmf * le->pdf_pos * le->pdf_dir));
+    Ray ray = le->ray;
+    for (int specular = 0; specular < m_opt.max_depth; ++specular) {
+      ++counter.rays;
+      auto si = scene.intersect(ray);
+      if (!si) return;
+      auto bsdf = scene.bsdf(*si, lambda);
+      BxDFFlags flags = bsdf.flags();
+      if (!any(flags)) return;
+      Point2f u_lens = sampler.get_2d();
+      if (specular > 0 && is_non_specular(flags)) {
+        if (auto cc = camera.connect(si->p, u_lens)) {
+          Vector3f to_cam = cc->p_lens - si->p;
+          Float d2 = length_squared(to_cam);
+          Vector3f wc = to_cam / std::sqrt(d2);
+          S f = bsdf.eval(si->wo, wc, TransportMode::importance);
+          if (!f.is_black() && d2 > 0) {
+            ++counter.rays;
+            if (!scene.occluded(si->spawn_ray_to(cc->p_lens), 1)) {
+              S v = beta * f * (abs_dot(wc, si->n) / d2 * cc->importance);
+              splat(cc->p_raster, traits::to_film(v, lambda));
+            }
+          }
+        }
+      }
+      // Continue only through a specular lobe: later non-specular vertices
+      // belong to the camera paths.
+      Float uc = sampler.get_1d();
+      Point2f u = sampler.get_2d();
+      auto bs = bsdf.sample(si->wo, uc, u, TransportMode::importance);
+      if (!bs || !bs->is_specular()) return;
+      beta *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
+      ray = si->spawn_ray(bs->wi);
+      Float rr = beta.max_component();
+      Float u_rr = sampler.get_1d();
+      if (specular + 1 >= m_opt.rr_min_depth && rr < 1) {
+        if (u_rr >= rr) return;
+        beta = beta / rr;
+      }
+      if (!beta.is_finite() || beta.is_black()) return;
+    }
   }
 
  private:

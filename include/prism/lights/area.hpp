@@ -65,6 +65,29 @@ class TriangleAreaLight {
     return distance_squared(ctx.p, si.p) / (cos_l * m_area);
   }
 
+  // An emitted ray: origin uniform by area, direction cosine-distributed about
+  // the emitting side's normal (either side with probability 1/2 if two-sided).
+  template <class W>
+  std::optional<LightLeSample<S>> sample_le(Point2f u_pos, Point2f u_dir, Float u_side, const W& lambda) const {
+    auto b = sample_uniform_triangle(u_pos);
+    Vector3f v0(m_p[0]), v1(m_p[1]), v2(m_p[2]);
+    Point3f p(v0 * b[0] + v1 * b[1] + v2 * b[2]);
+    Vector3f p_err = (abs(v0 * b[0]) + abs(v1 * b[1]) + abs(v2 * b[2])) * gamma(6);
+    Normal3f n = m_n;
+    Float side_pdf = 1;
+    if (m_emission.two_sided) {
+      side_pdf = 0.5f;
+      if (u_side < 0.5f) n = -n;
+    }
+    Vector3f wl = sample_cosine_hemisphere(u_dir);
+    Float pdf_dir = pdf_cosine_hemisphere(wl.z) * side_pdf;
+    if (!(pdf_dir > 0)) return std::nullopt;
+    Vector3f w = Frame::from_z(Vector3f(n)).from_local(wl);
+    S Le = spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+    Ray ray{offset_ray_origin(p, p_err, n, w), w};
+    return LightLeSample<S>{Le, ray, n, 1 / m_area, pdf_dir, m_instance, m_primitive};
+  }
+
   template <class W>
   S power(const W& lambda) const {
     Float sides = m_emission.two_sided ? 2 : 1;
@@ -151,6 +174,28 @@ class SphereAreaLight {
     if (Le.is_black() || !std::isfinite(pdf)) return std::nullopt;
     Point3f p_off = offset_ray_origin(p, p_err, n, -wi);
     return LightLiSample<S>{Le, wi, pdf, p_off, false, m_instance, 0};
+  }
+
+  // An emitted ray: origin uniform on the sphere, direction cosine-distributed
+  // about the outward normal (or, if two-sided, either normal with probability 1/2).
+  template <class W>
+  std::optional<LightLeSample<S>> sample_le(Point2f u_pos, Point2f u_dir, Float u_side, const W& lambda) const {
+    Vector3f nv = sample_uniform_sphere(u_pos);
+    Point3f p = m_sphere.center + nv * m_sphere.radius;
+    Vector3f p_err = abs(p - Point3f{}) * gamma(5);
+    Normal3f n(nv);
+    Float side_pdf = 1;
+    if (m_emission.two_sided) {
+      side_pdf = 0.5f;
+      if (u_side < 0.5f) n = -n;
+    }
+    Vector3f wl = sample_cosine_hemisphere(u_dir);
+    Float pdf_dir = pdf_cosine_hemisphere(wl.z) * side_pdf;
+    if (!(pdf_dir > 0)) return std::nullopt;
+    Vector3f w = Frame::from_z(Vector3f(n)).from_local(wl);
+    S Le = spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+    Ray ray{offset_ray_origin(p, p_err, n, w), w};
+    return LightLeSample<S>{Le, ray, n, 1 / m_sphere.area(), pdf_dir, m_instance, 0};
   }
 
   Float pdf_li(const LightSampleContext& ctx, const Vector3f& wi, const SurfaceInteraction& si) const {

@@ -35,6 +35,18 @@ struct LightLiSample {
   uint32_t instance = UINT32_MAX, primitive = UINT32_MAX;  // the surface sampled, for shadow rays
 };
 
+// A ray leaving a light, for tracing paths from the lights (light tracing):
+// L is the radiance along the ray, pdf_pos the area density of its origin and
+// pdf_dir the solid-angle density of its direction.
+template <class S>
+struct LightLeSample {
+  S L;
+  Ray ray;
+  Normal3f n;  // the light's surface normal at the origin (on the emitting side)
+  Float pdf_pos = 0, pdf_dir = 0;
+  uint32_t instance = UINT32_MAX, primitive = UINT32_MAX;
+};
+
 template <class L, class S>
 concept LightLike = requires(const L& l, const LightSampleContext& ctx, Point2f u, Vector3f w, wavelengths_t<S> lambda,
                              SurfaceInteraction si, Ray ray) {

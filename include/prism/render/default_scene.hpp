@@ -48,7 +48,8 @@ struct CornellBoxOptions {
   // the left wall: the prism spreads the lamp's white light into a spectrum on
   // the back wall (in spectral mode; RGB mode refracts at the d line only).
   bool prism = true;
-  AreaEmission slit{RGB(1.f), 400.f, false};
+  AreaEmission slit{RGB(1.f), 80.f, false};
+  Float lens_x = -0.62f, lens_radius = 0.3f, prism_turn = -33;
 };
 
 // A right prism whose cross-section is the triangle a, b, c in the xz-plane,
@@ -74,6 +75,61 @@ inline TriangleMesh make_triangular_prism(Point2f a, Point2f b, Point2f c, Float
       m.indices.insert(m.indices.end(), {i, j, j + 3, i, j + 3, i + 3});
     else
       m.indices.insert(m.indices.end(), {i, j + 3, j, i, i + 3, j + 3});
+  }
+  return m;
+}
+
+// A biconvex cylindrical lens whose axis is vertical (y0..y1): its cross-section
+// in the xz-plane is bounded by two circular arcs of radius R across an
+// aperture of width `aperture`, centred on `centre`, with the optical axis along
+// the unit xz-direction `axis`. The curved faces carry smooth vertex normals
+// (`segments` facets per face); the ends are flat.
+inline TriangleMesh make_cylindrical_lens(Point2f centre, Point2f axis, Float aperture, Float R, Float y0, Float y1,
+                                          int segments = 48) {
+  TriangleMesh m;
+  const Float half = aperture / 2, sag = R - std::sqrt(R * R - half * half);
+  const Point2f side{-axis.y, axis.x};  // across the aperture
+  auto to3 = [&](Float along, Float across, Float y) {
+    return Point3f{centre.x + along * axis.x + across * side.x, y, centre.y + along * axis.y + across * side.y};
+  };
+  // Face f = +1 bulges along +axis, f = -1 along -axis; its circle's centre
+  // lies at -f (R - sag) on the axis (edges touch at along = 0).
+  std::vector<uint32_t> rim[2];
+  for (int f = 0; f < 2; ++f) {
+    Float sgn = f == 0 ? 1.f : -1.f, c = -sgn * (R - sag);
+    uint32_t base = uint32_t(m.positions.size());
+    for (int i = 0; i <= segments; ++i) {
+      Float across = -half + aperture * Float(i) / Float(segments);
+      Float along = c + sgn * std::sqrt(R * R - across * across);
+      Vector3f n{(along - c) * axis.x + across * side.x, 0, (along - c) * axis.y + across * side.y};
+      n = n / R;
+      for (Float y : {y0, y1}) {
+        m.positions.push_back(to3(along, across, y));
+        m.normals.push_back(Normal3f(n.x, n.y, n.z));
+      }
+    }
+    for (int i = 0; i < segments; ++i) {
+      uint32_t a = base + 2 * uint32_t(i);
+      m.indices.insert(m.indices.end(), {a, a + 2, a + 3, a, a + 3, a + 1});
+      rim[f].push_back(a);
+    }
+    rim[f].push_back(base + 2 * uint32_t(segments));
+  }
+  // Flat ends: fans between the two faces' profiles, with their own vertices
+  // (normals -y and +y) so that the smooth side normals do not bend them.
+  for (int top = 0; top < 2; ++top) {
+    Float y = top ? y1 : y0;
+    Normal3f n{0, top ? 1.f : -1.f, 0};
+    uint32_t base = uint32_t(m.positions.size());
+    for (int f = 0; f < 2; ++f)
+      for (uint32_t v : rim[f]) {
+        Point3f p = m.positions[v];
+        m.positions.push_back({p.x, y, p.z});
+        m.normals.push_back(n);
+      }
+    uint32_t k = uint32_t(rim[0].size());
+    for (uint32_t i = 0; i + 1 < k; ++i)
+      m.indices.insert(m.indices.end(), {base + i, base + i + 1, base + k + i + 1, base + i, base + k + i + 1, base + k + i});
   }
   return m;
 }
@@ -112,23 +168,22 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
   scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, white);
 
   if (!opt.prism) return;
-  // The slit lamp: a narrow vertical emitter on the left wall at the back of a
-  // short black tube, so that its light leaves as a beam along +x.
-  const Float zs = 0.55f, half_w = 0.02f, y0 = -0.6f, y1 = 0.95f, depth = 0.12f;
+  // The spectrometer: a narrow vertical slit lamp on the left wall, a
+  // cylindrical lens that images the slit onto the back wall, and an SF11
+  // prism between them that spreads the image into a spectrum. (The lens
+  // gathers the slit's light over a wide angle, so the caustic that a path
+  // tracer must find by BSDF sampling is bright and converges quickly.)
+  const Float zs = 0.55f, half_w = 0.01f, y0 = -0.55f, y1 = 0.95f;
   TriangleMesh slit;
   append_quad(slit, {-0.999f, y0, zs - half_w}, {0, y1 - y0, 0}, {0, 0, 2 * half_w});  // normal +x
   scene.add_mesh_instance(std::move(slit), black, opt.slit);
-  TriangleMesh tube;
-  append_quad(tube, {-1, y0, zs - half_w}, {depth, 0, 0}, {0, y1 - y0, 0});
-  append_quad(tube, {-1, y0, zs + half_w}, {0, y1 - y0, 0}, {depth, 0, 0});
-  append_quad(tube, {-1, y0, zs - half_w}, {0, 0, 2 * half_w}, {depth, 0, 0});
-  append_quad(tube, {-1, y1, zs - half_w}, {depth, 0, 0}, {0, 0, 2 * half_w});
-  scene.add_mesh_instance(std::move(tube), black);
+  uint32_t lens_glass = scene.add_material(DielectricMaterial{IOR(1.5f), "lens glass"});
+  scene.add_mesh_instance(make_cylindrical_lens({opt.lens_x, zs}, {1, 0}, 0.24f, opt.lens_radius, y0, y1), lens_glass);
   // The prism: apex angle 60 degrees, side 0.36, its cross-section turned so
   // that the beam meets the first face at a steep angle and leaves towards the
   // back wall.
   uint32_t glass = scene.add_material(DielectricMaterial{SellmeierIOR::glass("N-SF11"), "SF11 glass prism"});
-  const Float side = 0.36f, r = side / std::sqrt(3.f), turn = radians(-28), cx = -0.25f, cz = 0.5f;
+  const Float side = 0.36f, r = side / std::sqrt(3.f), turn = radians(opt.prism_turn), cx = -0.25f, cz = 0.5f;
   Point2f v[3];
   for (int i = 0; i < 3; ++i) {
     Float a = radians(90 + 120 * Float(i)) + turn;

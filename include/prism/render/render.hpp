@@ -4,7 +4,9 @@
 // the pixel, the sample index and the seed. The image is therefore the same
 // whatever the thread count. A non-finite sample is dropped and counted.
 #pragma once
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <functional>
 #include <mutex>
@@ -31,6 +33,7 @@ struct RenderOptions {
 struct RenderStats {
   double seconds = 0;
   uint64_t samples = 0;
+  uint64_t light_paths = 0;  // paths of the light-tracing (caustics) pass, if it ran
   uint64_t rays = 0;
   uint64_t dropped = 0;  // non-finite samples, never written to the film
   bool cancelled = false;
@@ -48,10 +51,26 @@ RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const In
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min(threads, tiles));
 
-  std::atomic<int> next{0}, done{0};
+  // The light-tracing pass for caustics, when the integrator has one and the
+  // scene needs it (path.hpp): as many light paths as camera samples, in
+  // chunks taken from a counter like the tiles.
+  bool caustics = false;
+  if constexpr (requires { integrator.caustics_active(scene); }) caustics = integrator.caustics_active(scene);
+  const uint64_t light_paths = caustics ? uint64_t(w) * uint64_t(h) * uint64_t(std::max(0, opt.spp)) : 0;
+  constexpr uint64_t chunk_size = 4096;
+  const int chunks = int((light_paths + chunk_size - 1) / chunk_size);
+  const int total_work = tiles + chunks;
+
+  std::atomic<int> next{0}, done{0}, next_chunk{0};
   std::atomic<uint64_t> samples{0}, rays{0}, dropped{0};
   std::atomic<bool> cancelled{false};
   std::mutex progress_mutex;
+  // Splats are summed in 64-bit fixed point (2^-32 of the final pixel value):
+  // integer addition is associative, so the sum does not depend on the order
+  // in which threads add, and the image stays independent of the thread count.
+  constexpr double fixed_scale = 4294967296.0;
+  std::vector<std::atomic<int64_t>> splat_sum(caustics ? size_t(w) * size_t(h) * 3 : 0);
+  const double inv_paths = light_paths > 0 ? 1.0 / double(light_paths) : 0.0;
 
   auto worker = [&] {
     IndependentSampler sampler(opt.seed);
@@ -89,7 +108,43 @@ RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const In
       int d = ++done;
       if (opt.progress) {
         std::lock_guard lock(progress_mutex);
-        opt.progress(d, tiles);
+        opt.progress(d, total_work);
+      }
+    }
+    if constexpr (requires { integrator.caustics_active(scene); }) {
+      for (;;) {
+        if (!caustics || (opt.cancel && opt.cancel->load(std::memory_order_relaxed))) {
+          if (caustics) cancelled = true;
+          break;
+        }
+        int c = next_chunk.fetch_add(1);
+        if (c >= chunks) break;
+        uint64_t i0 = uint64_t(c) * chunk_size, i1 = std::min(light_paths, i0 + chunk_size);
+        for (uint64_t i = i0; i < i1; ++i) {
+          // Light path i draws its numbers from its own stream, disjoint from
+          // the camera samples' (rows h..2h-1 of the sampler's pixel grid).
+          sampler.start_pixel_sample(int(i % uint64_t(w)), h + int((i / uint64_t(w)) % uint64_t(h)),
+                                     int(i / (uint64_t(w) * uint64_t(h))));
+          integrator.trace_caustic_path(scene, camera, sampler, counter, [&](Point2f pr, const RGB& v) {
+            int px = std::clamp(int(pr.x), 0, w - 1), py = std::clamp(int(pr.y), 0, h - 1);
+            double q[3];
+            for (int k = 0; k < 3; ++k) {
+              q[k] = double(v[k]) * inv_paths * fixed_scale;
+              if (!std::isfinite(q[k]) || std::abs(q[k]) > 9.0e18 / 4) {
+                ++my_dropped;
+                return;
+              }
+            }
+            size_t base = (size_t(py) * size_t(w) + size_t(px)) * 3;
+            for (int k = 0; k < 3; ++k)
+              splat_sum[base + size_t(k)].fetch_add(int64_t(std::llround(q[k])), std::memory_order_relaxed);
+          });
+        }
+        int d = ++done;
+        if (opt.progress) {
+          std::lock_guard lock(progress_mutex);
+          opt.progress(d, total_work);
+        }
       }
     }
     samples += my_samples;
@@ -102,7 +157,14 @@ RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const In
   worker();
   for (auto& th : pool) th.join();
 
+  if (caustics && !cancelled) {
+    std::vector<double> values(splat_sum.size());
+    for (size_t i = 0; i < values.size(); ++i) values[i] = double(splat_sum[i].load()) / fixed_scale;
+    film.add_splats(values, 1.0);
+  }
+
   RenderStats st;
+  st.light_paths = cancelled ? 0 : light_paths;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   st.samples = samples;
   st.rays = rays;

@@ -83,6 +83,7 @@ class Scene {
     m_accel.build(opt);
 
     m_lights.clear();
+    m_infinite_indices.clear();
     for (size_t i = 0; i < m_info.size(); ++i) {
       auto& info = m_info[i];
       info.light_offset = -1;
@@ -129,6 +130,16 @@ class Scene {
     return bsdf_type::from_material(m_materials[size_t(si.material)], si, lambda);
   }
 
+  // True if some material may scatter specularly (a delta lobe), from its
+  // bxdf_traits: has_specular(material) when provided, else the static flags.
+  bool has_specular() const {
+    for (const auto& m : m_materials)
+      if (std::visit([](const auto& p) { return material_has_specular(p); }, m)) return true;
+    return false;
+  }
+  // True if the scene has area lights (emitting triangles or spheres); valid after build().
+  bool has_area_lights() const { return m_lights.size() > m_infinite_indices.size(); }
+
   // True if a material cannot be rendered exactly in RGB (dispersion, measured
   // spectra): the colour model a front end should choose without being told.
   bool needs_spectral() const {
@@ -156,6 +167,11 @@ class Scene {
   static bool material_needs_spectral(const P& p) {
     if constexpr (requires { traits_of<P>::needs_spectral(p); }) return traits_of<P>::needs_spectral(p);
     else return false;
+  }
+  template <class P>
+  static bool material_has_specular(const P& p) {
+    if constexpr (requires { traits_of<P>::has_specular(p); }) return traits_of<P>::has_specular(p);
+    else return is_specular(traits_of<P>::flags);
   }
   template <class P>
   static void validate_material(const P& p, const std::string& where) {
