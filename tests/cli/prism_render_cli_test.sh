@@ -25,6 +25,7 @@ expect_error --bogus-option
 expect_error --out /nonexistent-dir/x.png
 expect_error --out "$tmp/x.jpg"
 expect_error --out "$tmp"
+expect_error --spectral --rgb
 chmod 500 "$tmp" 2>/dev/null
 if [ "$(id -u)" != 0 ]; then expect_error --out "$tmp/ro.png"; fi
 chmod 700 "$tmp"
@@ -37,6 +38,14 @@ for f in cli.png cli.exr cli.pfm; do
 done
 printf '%s\n' "$out" | grep -Eq 'samples/s.*rays/s.*[0-9]+ dropped' || { echo "FAIL: no summary line: $out"; fails=$((fails+1)); }
 "$bin" --help | grep -q -- '--spp' || { echo "FAIL: --help lists no --spp"; fails=$((fails+1)); }
+
+# The colour model: the default scene disperses, so it renders spectrally
+# unless --rgb is given; the summary names the model.
+for args in "" "--rgb" "--spectral"; do
+  case "$args" in --rgb) want=rgb ;; *) want=spectral ;; esac
+  out=$("$bin" --width 8 --height 8 --spp 1 --quiet $args --out "$tmp/model.png" 2>/dev/null)
+  printf '%s\n' "$out" | grep -q ", $want, " || { echo "FAIL: '$args' did not render $want: $out"; fails=$((fails+1)); }
+done
 
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

@@ -194,3 +194,53 @@ TEST_CASE("diffuse Cornell box: RGB and spectral means agree within 2% per chann
     CHECK(rel <= 0.02);
   }
 }
+
+// A smooth dispersive glass sphere (SF11, Sellmeier) loses no energy, so in a
+// uniform white environment every pixel is 1 whatever the wavelengths, even
+// after the secondary wavelengths are terminated at the first refraction.
+TEST_CASE("spectral white furnace around a dispersive smooth glass sphere", "[integrators][furnace][spectral][dispersion]") {
+  Scene<Spectral> scene;
+  uint32_t m = scene.add_material(DielectricMaterial{SellmeierIOR::glass("N-SF11"), "SF11 sphere"});
+  scene.add_sphere(Sphere{{0, 0, 0}, 1}, m);
+  scene.add_infinite_light(UniformInfiniteLight<Spectral>(RGB(1.f)));
+  scene.build();
+  REQUIRE(scene.needs_spectral());
+  const int w = 8, h = 8;
+  PerspectiveCamera cam(look_at_camera_to_world({0, 0, 3}, {0, 0, 0}, {0, 1, 0}), radians(40), w, h);
+  Film film(w, h);
+  RenderOptions opt;
+  opt.spp = 512;
+  opt.seed = 9;
+  RenderStats st = render(scene, cam, PathIntegrator{}, film, opt);
+  REQUIRE(st.dropped == 0);
+  REQUIRE(st.light_paths == 0);  // no area light: no caustic pass
+  double sum = 0, var = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        double v = film.pixel(x, y)[c], sigma = std::sqrt(double(film.variance(x, y)[c]));
+        INFO("pixel " << x << "," << y << " channel " << c << " value " << v << " sigma " << sigma);
+        CHECK(std::abs(v - 1.0) <= 4 * sigma + 2e-3);  // 2e-3: D65 through the 1 nm tables and the sRGB matrix
+        sum += v / (w * h * 3);
+        var += double(film.variance(x, y)[c]) / double(w * h * 3) / double(w * h * 3);
+      }
+  INFO("image mean " << sum << " sigma " << std::sqrt(var));
+  CHECK(std::abs(sum - 1.0) <= 4 * std::sqrt(var) + 2e-3);
+}
+
+TEST_CASE("a glass whose Sellmeier law gives eta at most 1 is rejected when the scene is built", "[integrators][dispersion][validate]") {
+  Scene<Spectral> scene;
+  // B = 0 everywhere: eta = 1 at every wavelength.
+  uint32_t m = scene.add_material(
+      DielectricMaterial{SellmeierIOR({0.0, 0.0, 0.0, 0.0}, {0.01, 0.02, 100.0, 0.0}), "index-matched test glass"});
+  scene.add_sphere(Sphere{{0, 0, 0}, 1}, m);
+  try {
+    scene.build();
+    FAIL("build() accepted eta = 1");
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    INFO(msg);
+    CHECK(msg.find("index-matched test glass") != std::string::npos);
+    CHECK(msg.find("material 0") != std::string::npos);
+  }
+}
