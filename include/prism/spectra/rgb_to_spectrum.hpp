@@ -1,45 +1,56 @@
 // prism/spectra/rgb_to_spectrum.hpp — RGB to spectrum uplift after Jakob and
 // Hanika 2019, "A Low-Dimensional Function Space for Efficient Spectral
-// Upsampling" (Computer Graphics Forum 38(2)).
+// Upsampling" (Computer Graphics Forum 38(2)). Our own code and fit; pbrt-v4's
+// RGBToSpectrumTable was read for the table layout.
 //
-// A linear sRGB colour c in [0, 1]^3 becomes the smooth reflectance
+// The model. A linear sRGB colour c in [0, 1]^3 becomes the smooth reflectance
 //
 //   s(lambda) = S(c0 t^2 + c1 t + c2),   S(x) = 1/2 + x / (2 sqrt(1 + x^2)),
 //
-// with t = (lambda - 595 nm) / 235 nm the wavelength normalised to [-1, 1] over
-// 360..830 nm (coefficients for normalised t keep the polynomial well
-// conditioned in single precision). The coefficients are fitted so that s,
-// seen under D65 (sRGB's white), has exactly the colour c:
+// with t = (lambda - 595 nm) / 235 nm, the wavelength normalised to [-1, 1] over
+// 360..830 nm (the coefficients are for t, not nm: the polynomial stays well
+// conditioned in single precision). The coefficients are fitted so that s, seen
+// under D65 (sRGB's white), has the colour c:
 //
-//   xyz_to_linear_srgb(spectrum_to_xyz(s * illuminant_d65())) == c.
+//   xyz_to_linear_srgb(spectrum_to_xyz(s * illuminant_d65())) == c,
 //
-// So a grey albedo is a flat spectrum, RGB(1, 1, 1) lit by an RGB(1, 1, 1)
-// light (RGBIlluminantSpectrum, which is D65 with Y = 1) reflects sRGB white.
+// so a grey albedo is a flat spectrum and RGB(1, 1, 1) lit by an RGB(1, 1, 1)
+// light (RGBIlluminantSpectrum: D65 with Y = 1) reflects sRGB white.
 //
-// The fit. Gauss-Newton on the three coefficients, the residual being the
-// CIELAB difference (D65 white) between the spectrum's colour and c; colours
-// are integrated at 1 nm over 360..830 nm against the CIE 1931 tables of
-// data/cie_cmf.hpp with the 1 nm rectangle rule spectrum_to_xyz uses, so the
-// fit minimises exactly the round-trip error the tests measure.
+// The fit (rgb2spec::Fitter). Gauss-Newton on (c0, c1, c2), the residual being
+// the CIELAB difference (D65 white) between the spectrum's colour and c, with an
+// analytic Jacobian. Colours are integrated at 1 nm over 360..830 nm against
+// data/cie_cmf.hpp with the rectangle rule of spectrum_to_xyz, so the fit zeroes
+// the very round-trip error the tests measure.
 //
-// The table (the layout of pbrt-v4's RGBToSpectrumTable). Three tables, one per
-// largest component m. For a colour with largest component z = c[m], the other
-// two divided by z, x = c[(m+1)%3] / z and y = c[(m+2)%3] / z, are on a uniform
-// res x res grid over [0, 1]; z is on res nodes z_i = smoothstep(smoothstep(
-// i / (res - 1))), denser near 0 and 1 where the coefficients change fastest.
-// A lookup interpolates the coefficients trilinearly. Grey (r = g = b) is exact:
-// c0 = c1 = 0 and c2 = S^-1(r) (infinite for 0 and 1; S handles that).
+// The table (rgb2spec::fit_tables, RGBToSpectrumTable). As in pbrt-v4: three
+// tables, one per largest component m; a colour with largest component z = c[m]
+// is looked up at (x, y, z), x = c[(m+1)%3] / z, y = c[(m+2)%3] / z. Every axis
+// has res nodes at grid_node(i / (res - 1)), denser near 0 and 1, and the
+// coefficients are interpolated trilinearly in the grid parameter. Grey
+// (r = g = b) is exact: c0 = c1 = 0, c2 = S^-1(r) (infinite at 0 and 1).
+// The default resolution is 57 (odd, so that z = 1/2 is a node).
 //
-// The table is computed on first use (about 0.3-0.6 s on two cores at the
-// default resolution; docs/spectral.md, "RGB to spectrum uplift", has the
-// measured options and why), by a warm-started sweep: each cell starts from a
-// converged neighbour, so Gauss-Newton needs two or three steps per cell.
-// tools/rgb2spec/ holds a program that fits tables of any resolution with the
+// The spectra. RGBAlbedoSpectrum uses the table directly when its colour's
+// components straddle 1/2; a dark colour (all components <= 1/2) is 2 max(c)
+// times the spectrum of c / (2 max(c)), and a light one (all >= 1/2) is 1 minus
+// the dark spectrum of 1 - c. Both read the node slice z = 1/2 and so avoid the
+// table's singular corners (black and white, where the coefficients diverge):
+// errors there are relative, not absolute. RGBUnboundedSpectrum is 2 max(c)
+// times the spectrum of c / (2 max(c)) (equal to the albedo for dark colours);
+// RGBIlluminantSpectrum is that times D65.
+//
+// The table is fitted on first use (0.3-0.5 s on this project's two-core
+// machine; docs/spectral.md, "RGB to spectrum uplift", has the measured options,
+// the errors and why). Each cell starts from an extrapolation of its fitted
+// neighbours, so Gauss-Newton needs 1.6 evaluations per cell on average.
+// tools/rgb2spec/ holds a program that fits tables of any resolution with this
 // same code, writes them as headers and measures times and round-trip errors.
 //
 // Render-time cost: srgb_to_spectrum_table() is a function-local static (after
-// initialisation, one atomic load); a lookup is a few comparisons, a binary
-// search over res floats and 24 loads; an evaluation is one sqrt and one divide.
+// initialisation, one guard check, no lock); a lookup is a divide, three square
+// roots and 24 loads, no allocation; an evaluation is one square root and one
+// divide.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -54,14 +65,18 @@
 #include "prism/error.hpp"
 #include "prism/spectra/rgb.hpp"
 #include "prism/spectra/spectrum.hpp"
-// The fit's hot loop uses SSE2 (x86-64's baseline), and AVX2 with FMA where the
-// CPU has them (GCC and Clang: compiled for that target, chosen at run time).
+// The fit's hot loop uses SSE2 (x86-64's baseline), and AVX2 with FMA or
+// AVX-512 where the CPU has them (GCC and Clang: those functions are compiled
+// for their target and chosen at run time). Elsewhere it is plain C++.
 #if !defined(PRISM_RGB2SPEC_NO_SIMD) && (defined(__SSE2__) || defined(_M_X64))
 #include <emmintrin.h>
 #define PRISM_RGB2SPEC_SSE2 1
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #define PRISM_RGB2SPEC_AVX2 1
+#ifndef PRISM_RGB2SPEC_MAX_SIMD
+#define PRISM_RGB2SPEC_MAX_SIMD 2
+#endif
 #endif
 #endif
 
@@ -96,15 +111,21 @@ struct RGBSigmoidPolynomial {
     Float t = normalised_wavelength(lambda_nm);
     return detail::sigmoid((c0 * t + c1) * t + c2);
   }
-  // The largest value over 360..830 nm: S is increasing, so it is S of the
-  // polynomial's maximum over t in [-1, 1] (an end, or the vertex if c0 < 0).
-  Float max_value() const {
-    Float p = std::max(c0 - c1 + c2, c0 + c1 + c2);
-    if (c0 < 0) {
-      Float tv = -c1 / (2 * c0);
-      if (tv > -1 && tv < 1) p = std::max(p, (c0 * tv + c1) * tv + c2);
+  // The largest and smallest values over 360..830 nm: S is increasing, so they
+  // are S of the polynomial's extremes over t in [-1, 1] (an end, or the vertex).
+  Float max_value() const { return detail::sigmoid(extreme(Float(1))); }
+  Float min_value() const { return detail::sigmoid(-extreme(Float(-1))); }
+
+ private:
+  // max over t in [-1, 1] of sign * p(t).
+  Float extreme(Float sign) const {
+    Float a = sign * c0, b = sign * c1, c = sign * c2;
+    Float p = std::max(a - b + c, a + b + c);
+    if (a < 0) {
+      Float tv = -b / (2 * a);
+      if (tv > -1 && tv < 1) p = std::max(p, (a * tv + b) * tv + c);
     }
-    return detail::sigmoid(p);
+    return p;
   }
 };
 
@@ -113,7 +134,7 @@ struct RGBSigmoidPolynomial {
 namespace rgb2spec {
 
 // The default resolution of the sRGB table (see docs/spectral.md).
-inline constexpr int default_resolution = 48;
+inline constexpr int default_resolution = 57;
 // Coefficients are kept within [-max_coefficient, max_coefficient]: the fit
 // scales them down uniformly past that, and grey cells at 0 and 1 store the
 // clamped S^-1 (the lookup handles grey exactly, so only neighbours see them).
@@ -175,6 +196,19 @@ class Fitter {
     bool last_step_unchecked = false;  // ended with a full step from below `trust`; residual is the one before it
   };
 
+  // The instruction set of the hot loop: "AVX-512", "AVX2+FMA", "SSE2" or "scalar".
+  const char* simd() const {
+#if defined(PRISM_RGB2SPEC_AVX2)
+    if (m_simd == 2) return "AVX-512";
+    if (m_simd == 1) return "AVX2+FMA";
+#endif
+#if defined(PRISM_RGB2SPEC_SSE2)
+    return "SSE2";
+#else
+    return "scalar";
+#endif
+  }
+
   // The CIELAB residual of coefficients c for the colour rgb (one evaluation).
   double residual_norm(const double rgb[3], const double c[3]) const {
     double target[3], r[3], J[3][3];
@@ -186,7 +220,7 @@ class Fitter {
   // Fits c (read as the starting point, written with the result) to the
   // linear sRGB colour rgb.
   Result fit(const double rgb[3], double c[3], double tolerance = fit_tolerance, double trust = fit_trust,
-             int max_iterations = 60) const {
+             int max_iterations = 200) const {
     double target[3];
     target_lab(rgb, target);
     Result res;
@@ -226,16 +260,6 @@ class Fitter {
     for (int k = 0; k < 3; ++k) c[k] = best[k];
     res.residual = best_norm;
     return res;
-  }
-
-  // The linear sRGB that a round trip reads for coefficients c (double precision).
-  void rgb_of(const double c[3], double rgb[3]) const {
-    double xyz[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i) {
-      double s = detail::sigmoid((c[0] * m_t[i] + c[1]) * m_t[i] + c[2]);
-      for (int k = 0; k < 3; ++k) xyz[k] += m_w[k][i] * s;
-    }
-    solve_matrix(m_to_xyz, xyz, rgb);
   }
 
  private:
@@ -294,7 +318,7 @@ class Fitter {
 
   // The spectrum's XYZ (sum[0..2]) and its derivatives: sum[3 + 3 k + j] =
   // d XYZ_k / d c_j = sum_i w_k(lambda_i) S'(p_i) t_i^(2 - j). The hot loop of
-  // the fit: SSE2 (two doubles a step) where available.
+  // the fit, 8, 4 or 2 wavelengths a step (AVX-512, AVX2, SSE2).
   void moments(const double c[3], double sum[12]) const {
 #if defined(PRISM_RGB2SPEC_AVX2)
     if (m_simd == 2) return moments_avx512(c, sum);
@@ -395,10 +419,15 @@ class Fitter {
       sum[k] = ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
     }
   }
-  // 2: AVX-512F, 1: AVX2 and FMA, 0: SSE2.
-  int m_simd = __builtin_cpu_supports("avx512f") ? 2
-               : (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) ? 1
+  // 2: AVX-512F, 1: AVX2 and FMA, 0: SSE2 (PRISM_RGB2SPEC_MAX_SIMD caps it, to measure).
+  static int detect_simd() {
+    __builtin_cpu_init();  // in case this runs before the constructors that set up detection
+    int level = __builtin_cpu_supports("avx512f")                               ? 2
+                : (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) ? 1
                                                                                     : 0;
+    return std::min(level, int(PRISM_RGB2SPEC_MAX_SIMD));
+  }
+  int m_simd = detect_simd();
 #endif
 
   // Solves A x = b (Gaussian elimination, partial pivoting); false if singular.
@@ -431,20 +460,19 @@ class Fitter {
 
 // What a table fit did: for the documentation and the generator's report.
 struct FitStats {
-  long cells = 0;            // cells fitted by Gauss-Newton (grey cells are exact)
-  long evaluations = 0;      // colour evaluations, in total
-  long not_converged = 0;    // cells whose final CIELAB residual is above the tolerance
-  double max_residual = 0;   // largest final CIELAB residual, over the fitted cells
+  long cells = 0;           // cells fitted by Gauss-Newton (grey cells are exact)
+  long evaluations = 0;     // colour evaluations, in total
+  long not_converged = 0;   // cells that stopped above the tolerance
+  double max_residual = 0;  // largest last CIELAB residual seen (before the final,
+                            // unchecked step of the cells that take one)
 };
 
 // Fits the three coefficient tables for linear sRGB at resolution res with the
-// given number of threads. coeffs is laid out [m][z][y][x][3] (m the index of
-// the largest component), z_nodes holds the res nodes of z.
-inline FitStats fit_tables(int res, int threads, std::vector<float>& z_nodes, std::vector<float>& coeffs) {
+// given number of threads into coeffs, laid out [m][z][y][x][3] (m the index of
+// the largest component; node values grid_node(i, res) on every axis).
+inline FitStats fit_tables(int res, int threads, std::vector<float>& coeffs) {
   if (res < 3) throw Error("rgb2spec: table resolution must be at least 3");
   const Fitter fitter;
-  z_nodes.resize(size_t(res));
-  for (int i = 0; i < res; ++i) z_nodes[size_t(i)] = float(grid_node(i, res));
   const size_t cells = size_t(3) * size_t(res) * size_t(res) * size_t(res);
   std::vector<double> work(cells * 3);  // double precision, for warm starts
   auto idx = [res](int m, int zi, int yi, int xi) {
@@ -556,21 +584,22 @@ class RGBToSpectrumTable {
   // Fits a table at resolution res (see rgb2spec::fit_tables).
   static RGBToSpectrumTable fit_srgb(int res = rgb2spec::default_resolution, int threads = default_threads(),
                                      rgb2spec::FitStats* stats = nullptr) {
-    RGBToSpectrumTable t;
-    t.m_res = res;
-    rgb2spec::FitStats s = rgb2spec::fit_tables(res, threads, t.m_z, t.m_coeffs);
+    std::vector<float> coeffs;
+    rgb2spec::FitStats s = rgb2spec::fit_tables(res, threads, coeffs);
     if (stats) *stats = s;
-    return t;
+    return RGBToSpectrumTable(res, coeffs);
   }
-  // A table from stored nodes and coefficients (as tools/rgb2spec writes them).
-  RGBToSpectrumTable(int res, std::span<const float> z_nodes, std::span<const float> coeffs)
-      : m_res(res), m_z(z_nodes.begin(), z_nodes.end()), m_coeffs(coeffs.begin(), coeffs.end()) {
-    if (res < 3 || m_z.size() != size_t(res) || m_coeffs.size() != size_t(9) * size_t(res) * size_t(res) * size_t(res))
-      throw Error("RGBToSpectrumTable: node or coefficient count does not match resolution " + std::to_string(res));
+  // A table from stored coefficients, laid out as fit_tables writes them.
+  RGBToSpectrumTable(int res, std::span<const float> coeffs)
+      : m_res(res), m_z1(Float(rgb2spec::grid_node(1, res))), m_coeffs(coeffs.begin(), coeffs.end()) {
+    if (res < 3 || m_coeffs.size() != size_t(9) * size_t(res) * size_t(res) * size_t(res))
+      throw Error("RGBToSpectrumTable: " + std::to_string(m_coeffs.size()) +
+                  " coefficients do not match resolution " + std::to_string(res));
   }
 
-  // The sigmoid polynomial of a linear sRGB colour in [0, 1]^3 (not checked here;
-  // RGBAlbedoSpectrum checks). Grey is exact.
+  // The sigmoid polynomial of a linear sRGB colour in [0, 1]^3 (not checked
+  // here; RGBAlbedoSpectrum checks). Grey is exact; other colours carry the
+  // interpolation error (largest near black and white, see RGBAlbedoSpectrum).
   RGBSigmoidPolynomial operator()(const RGB& rgb) const {
     if (rgb.r == rgb.g && rgb.g == rgb.b) return {0, 0, Float(detail::inverse_sigmoid(double(rgb.r)))};
     int m = rgb.r > rgb.g ? (rgb.r > rgb.b ? 0 : 2) : (rgb.g > rgb.b ? 1 : 2);
@@ -588,7 +617,7 @@ class RGBToSpectrumTable {
     // z^-1/2 (S(p) ~ 1 / (4 p^2) as p -> -inf): scale those of node 1.
     Float dark = 1;
     if (zi == 0) {
-      dark = std::sqrt(m_z[1] * inv_z);
+      dark = std::sqrt(m_z1 * inv_z);
       zi = 1, dz = 0;
     }
     const size_t sx = 3, sy = 3 * size_t(res), sz = sy * size_t(res);
@@ -603,7 +632,6 @@ class RGBToSpectrumTable {
   }
 
   int resolution() const { return m_res; }
-  std::span<const float> z_nodes() const { return m_z; }
   std::span<const float> coefficients() const { return m_coeffs; }
 
   static int default_threads() {
@@ -612,9 +640,9 @@ class RGBToSpectrumTable {
   }
 
  private:
-  RGBToSpectrumTable() = default;
-  int m_res = 0;
-  std::vector<float> m_z, m_coeffs;
+  int m_res;
+  Float m_z1;  // the first node above black
+  std::vector<float> m_coeffs;
 };
 
 // The linear sRGB table, fitted on first use (thread-safe static initialisation).
@@ -642,7 +670,13 @@ inline Float d65_max_value() {
 }
 }  // namespace detail
 
-// A reflectance given as linear sRGB in [0, 1]^3; its values lie in [0, 1].
+// A reflectance given as linear sRGB in [0, 1]^3: offset + scale * S(p(lambda)),
+// whose values lie in [0, 1]. Colours whose components straddle 1/2 use the
+// table directly (offset 0, scale 1); dark ones (all <= 1/2) are scale = 2 max(c)
+// times the polynomial of c / scale; light ones (all >= 1/2) are 1 minus the
+// dark spectrum of 1 - c. The branches meet at 1/2: across max = 1/2 the
+// spectrum is continuous, across min = 1/2 the two sides are metamers that
+// differ by a few 1e-3 in 400..700 nm (up to ~1e-2 beyond 700 nm).
 // Throws prism::Error for components outside [0, 1] (or not finite).
 class RGBAlbedoSpectrum {
  public:
@@ -650,20 +684,41 @@ class RGBAlbedoSpectrum {
   RGBAlbedoSpectrum(const RGBToSpectrumTable& table, const RGB& rgb) {
     if (!(rgb.r >= 0 && rgb.r <= 1 && rgb.g >= 0 && rgb.g <= 1 && rgb.b >= 0 && rgb.b <= 1))
       throw Error("RGBAlbedoSpectrum: albedo " + detail::rgb_string(rgb) + " has a component outside [0, 1]");
-    m_poly = table(rgb);
+    Float hi = rgb.max_component(), lo = std::min(rgb.r, std::min(rgb.g, rgb.b));
+    if (hi == lo || (hi > Float(0.5) && lo < Float(0.5))) {
+      m_poly = table(rgb);  // grey (exact), or straddling 1/2
+    } else if (hi <= Float(0.5)) {
+      // Dark: 2 hi times the spectrum of rgb / (2 hi), whose largest component is 1/2.
+      m_scale = 2 * hi;
+      m_poly = table(rgb / m_scale);
+    } else {
+      // Light: 1 minus the dark spectrum of 1 - rgb.
+      RGB d = RGB(1) - rgb;
+      Float m = d.max_component();
+      m_offset = 1;
+      m_scale = -2 * m;
+      m_poly = table(d / (2 * m));
+    }
   }
-  Float operator()(Float lambda_nm) const { return m_poly(lambda_nm); }
-  Float max_value() const { return m_poly.max_value(); }
+  Float operator()(Float lambda_nm) const { return m_offset + m_scale * m_poly(lambda_nm); }
+  Float max_value() const {
+    return m_scale >= 0 ? m_offset + m_scale * m_poly.max_value() : m_offset + m_scale * m_poly.min_value();
+  }
+  // The spectrum is offset() + scale() * polynomial()(lambda).
   const RGBSigmoidPolynomial& polynomial() const { return m_poly; }
+  Float scale() const { return m_scale; }
+  Float offset() const { return m_offset; }
 
  private:
   RGBSigmoidPolynomial m_poly;
+  Float m_offset = 0, m_scale = 1;
 };
 
-// An unbounded non-negative quantity given as linear sRGB: scale * s(lambda)
-// with scale = 2 max(r, g, b) and s the albedo polynomial of rgb / scale (whose
-// largest component is 1/2, where the table is most accurate and s has room
-// both ways). Throws prism::Error for negative or non-finite components.
+// An unbounded non-negative quantity given as linear sRGB: scale * S(p(lambda))
+// with scale = 2 max(r, g, b) and p the polynomial of rgb / scale, read on the
+// table's node slice z = 1/2 (s has room both ways there). For rgb in [0, 1/2]^3
+// it equals RGBAlbedoSpectrum. Throws prism::Error for negative or non-finite
+// components.
 class RGBUnboundedSpectrum {
  public:
   explicit RGBUnboundedSpectrum(const RGB& rgb) : RGBUnboundedSpectrum(srgb_to_spectrum_table(), rgb) {}

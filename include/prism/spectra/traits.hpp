@@ -20,20 +20,26 @@ struct spectrum_traits<SampledSpectrum<N>> {
   // A reflectance in [0, 1]: a bounded sigmoid spectrum (values clamped into
   // [0, 1] first; the scene validates its materials).
   static SampledSpectrum<N> albedo(const RGB& c, const wavelengths_type& lambda) {
-    RGB cl{std::clamp(c.r, Float(0), Float(1)), std::clamp(c.g, Float(0), Float(1)), std::clamp(c.b, Float(0), Float(1))};
-    return sample(RGBAlbedoSpectrum(cl), lambda);
+    return sample(RGBAlbedoSpectrum(RGB{unit(c.r), unit(c.g), unit(c.b)}), lambda);
   }
   // Emission: the uplifted colour times the colour space's illuminant (D65,
   // normalised to Y = 1), so that RGB(1, 1, 1) emits white.
   static SampledSpectrum<N> illuminant(const RGB& c, const wavelengths_type& lambda) {
-    if (c.is_black()) return SampledSpectrum<N>(0);
-    return sample(RGBIlluminantSpectrum(clamp_zero(c)), lambda);
+    RGB v{finite_non_negative(c.r), finite_non_negative(c.g), finite_non_negative(c.b)};
+    if (v.is_black()) return SampledSpectrum<N>(0);
+    return sample(RGBIlluminantSpectrum(v), lambda);
   }
   // A non-negative quantity that may exceed 1.
   static SampledSpectrum<N> unbounded(const RGB& c, const wavelengths_type& lambda) {
-    if (c.is_black()) return SampledSpectrum<N>(0);
-    return sample(RGBUnboundedSpectrum(clamp_zero(c)), lambda);
+    RGB v{finite_non_negative(c.r), finite_non_negative(c.g), finite_non_negative(c.b)};
+    if (v.is_black()) return SampledSpectrum<N>(0);
+    return sample(RGBUnboundedSpectrum(v), lambda);
   }
+  // The render loop never throws: NaN becomes 0, values are clamped into range
+  // (scenes validate their parameters when built).
+  static Float unit(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }
+  static Float finite_non_negative(Float v) { return v > 0 && std::isfinite(v) ? v : Float(0); }
+
   // The film accumulates CIE XYZ (stored in an RGB triple as x, y, z).
   static constexpr bool film_xyz = true;
   static RGB to_film(const SampledSpectrum<N>& L, const wavelengths_type& lambda) {
