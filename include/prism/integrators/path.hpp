@@ -60,14 +60,20 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
   using S = typename Scene::spectrum_type;
   S L{};
   for (uint32_t idx : scene.infinite_lights()) {
-    const auto& light = std::get<UniformInfiniteLight<S>>(scene.lights()[idx]);
-    S Le = light.Le(ray, lambda);
-    if (!weigh_by_mis) {
-      L += Le;
-    } else {
-      Float p_l = scene.light_sampler().pmf(idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
-      L += Le * power_heuristic(bsdf_pdf, p_l);
-    }
+    std::visit(
+        [&](const auto& light) {
+          if constexpr (requires { light.Le(ray, lambda); }) {
+            S Le = light.Le(ray, lambda);
+            if (Le.is_black()) return;
+            if (!weigh_by_mis) {
+              L += Le;
+            } else {
+              Float p_l = scene.light_sampler().pmf(idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
+              L += Le * power_heuristic(bsdf_pdf, p_l);
+            }
+          }
+        },
+        scene.lights()[idx]);
   }
   return L;
 }
@@ -173,7 +179,7 @@ class PathIntegrator {
     using S = typename Scene::spectrum_type;
     using traits = spectrum_traits<S>;
     auto lambda = traits::sample_wavelengths(sampler.get_1d());
-    auto sl = scene.light_sampler().sample(sampler.get_1d());
+    auto sl = scene.area_light_sampler().sample(sampler.get_1d());
     Point2f u_pos = sampler.get_2d(), u_dir = sampler.get_2d();
     Float u_side = sampler.get_1d();
     if (!sl) return;

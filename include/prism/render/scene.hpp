@@ -1,5 +1,6 @@
 // prism/render/scene.hpp — a scene built in code: meshes and spheres with
-// materials, optional area emission, infinite lights. Templated on the colour
+// materials, optional area emission, and lights: uniform and image
+// environments, sun, point, spot and distant lights. Templated on the colour
 // type S and the BxDF set, so a renderer is instantiated for what it needs.
 // build() validates and builds the acceleration structure; it throws
 // prism::Error naming the object and what is wrong.
@@ -13,8 +14,11 @@
 #include "prism/bxdfs/diffuse.hpp"
 #include "prism/error.hpp"
 #include "prism/lights/area.hpp"
+#include "prism/lights/image_infinite.hpp"
 #include "prism/lights/infinite.hpp"
 #include "prism/lights/light_sampler.hpp"
+#include "prism/lights/power_sampler.hpp"
+#include "prism/lights/punctual.hpp"
 
 namespace prism {
 
@@ -22,7 +26,12 @@ template <class S>
 using default_bxdf_set = bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>>;
 
 template <class S>
-using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>>;
+using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>, ImageInfiniteLight<S>,
+                           SunLight<S>, PointLight<S>, SpotLight<S>, DistantLight<S>>;
+
+// How next-event estimation chooses a light: with probability proportional
+// to its power (the default), or uniformly.
+enum class LightSelection { power, uniform };
 
 template <class S, class Set = default_bxdf_set<S>>
 class Scene {
@@ -54,7 +63,15 @@ class Scene {
     m_info.push_back({int32_t(material), -1, emission});
     return id;
   }
-  void add_infinite_light(const UniformInfiniteLight<S>& l) { m_infinite.push_back(l); }
+  // A light that is not an emitting surface: an environment (uniform or
+  // image), a sun, a point, spot or distant light.
+  template <class L>
+    requires(!std::is_same_v<L, TriangleAreaLight<S>> && !std::is_same_v<L, SphereAreaLight<S>>)
+  void add_light(const L& l) {
+    m_extra_lights.emplace_back(l);
+  }
+  void add_infinite_light(const UniformInfiniteLight<S>& l) { add_light(l); }
+  void set_light_selection(LightSelection s) { m_selection = s; }
 
   // Validates the scene and builds lights and the acceleration structure.
   void build(const BVHBuildOptions& opt = {}) {
@@ -101,14 +118,35 @@ class Scene {
         m_lights.emplace_back(TriangleAreaLight<S>(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t)));
       }
     }
+    m_area_light_count = m_lights.size();
     Bounds3f b = m_accel.bounds();
     Float radius = b.empty() ? 1 : length(b.diagonal()) / 2;
-    for (auto& l : m_infinite) {
-      l.set_scene_radius(radius);
-      m_lights.emplace_back(l);
-      m_infinite_indices.push_back(uint32_t(m_lights.size() - 1));
+    for (auto l : m_extra_lights) {
+      std::visit(
+          [&](auto& light) {
+            if constexpr (requires { light.set_scene_radius(radius); }) light.set_scene_radius(radius);
+          },
+          l);
+      m_lights.push_back(l);
+      // Lights that a ray escaping the scene can see (detail::escaped).
+      bool has_le = std::visit([](const auto& light) { return requires { light.Le(Ray{}, wavelengths_t<S>{}); }; }, l);
+      if (has_le) m_infinite_indices.push_back(uint32_t(m_lights.size() - 1));
     }
-    m_light_sampler = UniformLightSampler(m_lights.size());
+    if (m_selection == LightSelection::power) {
+      m_light_sampler = make_power_light_sampler<S>(m_lights);
+    } else {
+      std::vector<Float> ones(m_lights.size(), Float(1));
+      m_light_sampler = PowerLightSampler(ones);
+    }
+    // The caustic pass starts light paths on area lights only, by power.
+    std::vector<Float> area_power(m_lights.size(), Float(0));
+    if (m_area_light_count > 0) {
+      PowerLightSampler all = make_power_light_sampler<S>(m_lights);
+      for (size_t i = 0; i < m_area_light_count; ++i) area_power[i] = all.pmf(uint32_t(i));
+      m_area_light_sampler = PowerLightSampler(area_power);
+    } else {
+      m_area_light_sampler = PowerLightSampler();
+    }
   }
 
   std::optional<SurfaceInteraction> intersect(const Ray& ray, Float t_max = infinity) const {
@@ -138,7 +176,7 @@ class Scene {
     return false;
   }
   // True if the scene has area lights (emitting triangles or spheres); valid after build().
-  bool has_area_lights() const { return m_lights.size() > m_infinite_indices.size(); }
+  bool has_area_lights() const { return m_area_light_count > 0; }
 
   // True if a material cannot be rendered exactly in RGB (dispersion, measured
   // spectra): the colour model a front end should choose without being told.
@@ -150,7 +188,9 @@ class Scene {
 
   const std::vector<light_type>& lights() const { return m_lights; }
   const std::vector<uint32_t>& infinite_lights() const { return m_infinite_indices; }
-  const UniformLightSampler& light_sampler() const { return m_light_sampler; }
+  const PowerLightSampler& light_sampler() const { return m_light_sampler; }
+  // Chooses among the area lights only (by power): where light paths start.
+  const PowerLightSampler& area_light_sampler() const { return m_area_light_sampler; }
   const SceneAccel& accel() const { return m_accel; }
   Bounds3f bounds() const { return m_accel.bounds(); }
 
@@ -204,10 +244,12 @@ class Scene {
   SceneAccel m_accel;
   std::vector<material_type> m_materials;
   std::vector<InstanceInfo> m_info;
-  std::vector<UniformInfiniteLight<S>> m_infinite;
-  std::vector<light_type> m_lights;
+  std::vector<light_type> m_extra_lights;  // as added; copied into m_lights by build()
+  std::vector<light_type> m_lights;        // area lights first, then the others
+  size_t m_area_light_count = 0;
   std::vector<uint32_t> m_infinite_indices;
-  UniformLightSampler m_light_sampler;
+  LightSelection m_selection = LightSelection::power;
+  PowerLightSampler m_light_sampler, m_area_light_sampler;
 };
 
 }  // namespace prism
