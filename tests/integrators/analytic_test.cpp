@@ -176,13 +176,13 @@ TEST_CASE("diffuse Cornell box: RGB and spectral means agree within 2% per chann
   Film a(w, h), b(w, h);
   {
     Scene<RGB> scene;
-    build_cornell_box(scene, CornellBoxOptions{.prism = false});
+    build_cornell_box(scene, CornellBoxOptions{.prism = false, .gold_sphere = false});
     scene.build();
     render(scene, cam, PathIntegrator{}, a, opt);
   }
   {
     Scene<Spectral> scene;
-    build_cornell_box(scene, CornellBoxOptions{.prism = false});
+    build_cornell_box(scene, CornellBoxOptions{.prism = false, .gold_sphere = false});
     scene.build();
     render(scene, cam, PathIntegrator{}, b, opt);
   }

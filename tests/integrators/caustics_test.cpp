@@ -36,12 +36,13 @@ struct RegionStats {
 // Renders `runs` images with consecutive seeds and returns, per 8x8 region and
 // channel, the mean over runs of the region's mean and its standard error.
 template <class S>
-RegionStats render_runs(const PathIntegrator& integrator, uint64_t seed0, int runs, int spp) {
+RegionStats render_runs(const PathIntegrator& integrator, uint64_t seed0, int runs, int spp, bool ortho = false) {
   Scene<S> scene;
   build_caustic_scene(scene);
   const int w = 32, h = 32, region = 8;
   // Looks down on the caustic, which the sphere throws around (0.75, 0, 0).
   PerspectiveCamera cam(look_at_camera_to_world({1.2f, 4, 1.5f}, {0.7f, 0, 0}, {0, 1, 0}), radians(25), w, h);
+  OrthographicCamera ortho_cam(look_at_camera_to_world({1.2f, 4, 1.5f}, {0.7f, 0, 0}, {0, 1, 0}), 1.8f, w, h);
   const int regions = (w / region) * (h / region);
   std::vector<std::vector<double>> per_run(size_t(runs), std::vector<double>(size_t(regions) * 3, 0.0));
   for (int r = 0; r < runs; ++r) {
@@ -49,7 +50,7 @@ RegionStats render_runs(const PathIntegrator& integrator, uint64_t seed0, int ru
     RenderOptions opt;
     opt.spp = spp;
     opt.seed = seed0 + uint64_t(r);
-    RenderStats st = render(scene, cam, integrator, film, opt);
+    RenderStats st = ortho ? render(scene, ortho_cam, integrator, film, opt) : render(scene, cam, integrator, film, opt);
     REQUIRE(st.dropped == 0);
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
@@ -70,13 +71,13 @@ RegionStats render_runs(const PathIntegrator& integrator, uint64_t seed0, int ru
 }
 
 template <class S>
-void check_caustics_match() {
+void check_caustics_match(bool ortho = false) {
   PathOptions lt, pt;
   pt.light_traced_caustics = false;
   // Path tracing alone finds the caustic by BSDF sampling: it gets 4x the
   // samples so that both sides' errors are of a size.
-  RegionStats a = render_runs<S>(PathIntegrator(lt), 100, 8, 128);
-  RegionStats b = render_runs<S>(PathIntegrator(pt), 200, 8, 512);
+  RegionStats a = render_runs<S>(PathIntegrator(lt), 100, 8, 128, ortho);
+  RegionStats b = render_runs<S>(PathIntegrator(pt), 200, 8, 512, ortho);
   int compared = 0;
   double worst = 0;
   for (size_t i = 0; i < a.mean.size(); ++i) {
@@ -104,6 +105,10 @@ TEST_CASE("light-traced caustics agree with path tracing alone under a glass sph
 TEST_CASE("light-traced caustics agree with path tracing alone under a glass sphere, spectral",
           "[integrators][caustics][spectral]") {
   check_caustics_match<Spectral>();
+}
+
+TEST_CASE("light-traced caustics agree with path tracing alone through an orthographic camera", "[integrators][caustics][orthographic]") {
+  check_caustics_match<RGB>(true);
 }
 
 TEST_CASE("the caustic pass runs only for scenes with specular materials and area lights", "[integrators][caustics]") {

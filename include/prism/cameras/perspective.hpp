@@ -15,10 +15,11 @@ namespace prism {
 struct CameraConnection {
   Point2f p_raster;  // pixels
   Point3f p_lens;    // world space
-  // 1 / (cos^3(theta) * s_x * s_y): raster area per unit solid angle at the lens
-  // point, with theta the angle to the optical axis and s_x, s_y the size of a
-  // pixel on the plane at distance 1. A light path's contribution to its pixel
-  // is beta * f * |cos at the point| / distance^2 * importance (docs/caustics.md).
+  // Raster area per unit area of the surface at the point, over |cos| there:
+  // for a perspective camera 1 / (r^2 cos^3(theta) s_x s_y), with r the distance
+  // to the lens point, theta the angle to the optical axis and s_x, s_y the
+  // size of a pixel on the plane at distance 1. A light path's contribution to
+  // its pixel is beta * f * |cos at the point| * importance (docs/caustics.md).
   Float importance = 0;
 };
 
@@ -42,6 +43,8 @@ class PerspectiveCamera {
   int width() const { return m_width; }
   int height() const { return m_height; }
   const Transform& camera_to_world() const { return m_to_world; }
+  Float lens_radius() const { return m_lens_radius; }
+  Float focal_distance() const { return m_focal_distance; }
 
   // A ray through the film position with a unit direction.
   Ray generate_ray(const CameraSample& s) const {
@@ -84,9 +87,11 @@ class PerspectiveCamera {
     }
     Point2f raster{(fx / (m_tan_half * m_aspect) + 1) * Float(m_width) / 2, (1 - fy / m_tan_half) * Float(m_height) / 2};
     if (!(raster.x >= 0 && raster.x < Float(m_width) && raster.y >= 0 && raster.y < Float(m_height))) return std::nullopt;
+    Point3f lens_world = m_to_world(lens);
+    Float r2 = distance_squared(p, lens_world);
     Float cos_theta = v.z / length(v);
     Float sx = 2 * m_tan_half * m_aspect / Float(m_width), sy = 2 * m_tan_half / Float(m_height);
-    return CameraConnection{raster, m_to_world(lens), 1 / (cos_theta * cos_theta * cos_theta * sx * sy)};
+    return CameraConnection{raster, lens_world, 1 / (r2 * cos_theta * cos_theta * cos_theta * sx * sy)};
   }
 
  private:

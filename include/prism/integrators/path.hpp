@@ -207,11 +207,11 @@ class PathIntegrator {
           Vector3f to_cam = cc->p_lens - si->p;
           Float d2 = length_squared(to_cam);
           Vector3f wc = to_cam / std::sqrt(d2);
-          S f = bsdf.eval(si->wo, wc, TransportMode::importance);
-          if (!f.is_black() && d2 > 0) {
+          S f = d2 > 0 ? bsdf.eval(si->wo, wc, TransportMode::importance) : S{};
+          if (!f.is_black()) {
             ++counter.rays;
             if (!scene.occluded(si->spawn_ray_to(cc->p_lens), 1)) {
-              S v = beta * f * (abs_dot(wc, si->n) / d2 * cc->importance);
+              S v = beta * f * (abs_dot(wc, si->n) * cc->importance);
               splat(cc->p_raster, traits::to_film(v, lambda));
             }
           }

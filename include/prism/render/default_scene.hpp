@@ -50,6 +50,8 @@ struct CornellBoxOptions {
   bool prism = true;
   AreaEmission slit{RGB(1.f), 80.f, false};
   Float lens_x = -0.62f, lens_radius = 0.3f, prism_turn = -33;
+  bool gold_sphere = true;  // false: the sphere is white and diffuse
+  Float gold_alpha = 0.2f;  // GGX alpha of the gold sphere
 };
 
 // A right prism whose cross-section is the triangle a, b, c in the xz-plane,
@@ -134,8 +136,8 @@ inline TriangleMesh make_cylindrical_lens(Point2f centre, Point2f axis, Float ap
   return m;
 }
 
-// Fills a scene whose BxDF set includes DiffuseBxDF (and DielectricBxDF when
-// opt.prism is set, as default_bxdf_set does).
+// Fills a scene whose BxDF set includes DiffuseBxDF, ConductorBxDF and
+// DielectricBxDF (as default_bxdf_set does).
 template <class Scene>
 void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
   const AreaEmission& light = opt.light;
@@ -164,8 +166,11 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
   // A tall box, rotated about y, standing on the floor at the back left.
   uint32_t box = scene.add_mesh(make_box({-0.3f, -1, -0.3f}, {0.3f, 0.2f, 0.3f}));
   scene.add_instance(box, white, translate({-0.35f, 0, -0.3f}) * rotate(radians(18), {0, 1, 0}));
-  // A sphere on the floor at the front right.
-  scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, white);
+  // A rough gold sphere (measured eta and k) on the floor at the front right.
+  uint32_t sphere_m = opt.gold_sphere ? scene.add_material(ConductorMaterial::metal(
+                                            "Au", MicrofacetRoughness(opt.gold_alpha), "rough gold"))
+                                      : white;
+  scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, sphere_m);
 
   if (!opt.prism) return;
   // The spectrometer: a narrow vertical slit lamp on the left wall, a

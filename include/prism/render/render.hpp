@@ -12,6 +12,7 @@
 #include <mutex>
 #include <thread>
 #include <vector>
+#include "prism/cameras/orthographic.hpp"
 #include "prism/cameras/perspective.hpp"
 #include "prism/film/film.hpp"
 #include "prism/film/filter.hpp"
@@ -39,8 +40,10 @@ struct RenderStats {
   bool cancelled = false;
 };
 
-template <class Scene, class Integrator, class Filter = BoxFilter>
-RenderStats render(const Scene& scene, const PerspectiveCamera& camera, const Integrator& integrator, Film& film,
+// Camera: PerspectiveCamera, OrthographicCamera or any type with
+// generate_ray(CameraSample) (and connect(p, u_lens) for the caustic pass).
+template <class Scene, class Integrator, class Filter = BoxFilter, class Camera = PerspectiveCamera>
+RenderStats render(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
                    const RenderOptions& opt, const Filter& filter = Filter{}) {
   using S = typename Scene::spectrum_type;
   using traits = spectrum_traits<S>;

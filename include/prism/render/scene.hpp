@@ -10,6 +10,7 @@
 #include <vector>
 #include "prism/accel/scene_accel.hpp"
 #include "prism/bxdfs/bsdf.hpp"
+#include "prism/bxdfs/conductor.hpp"
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/diffuse.hpp"
 #include "prism/error.hpp"
@@ -22,8 +23,10 @@
 
 namespace prism {
 
+// The BxDFs a Scene is instantiated with unless told otherwise. A renderer
+// that needs fewer (or more: a user's own) names its own bxdf_set.
 template <class S>
-using default_bxdf_set = bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>>;
+using default_bxdf_set = bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>, ConductorBxDF<S>, ThinDielectricBxDF<S>>;
 
 template <class S>
 using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>, ImageInfiniteLight<S>,

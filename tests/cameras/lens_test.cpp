@@ -1,0 +1,91 @@
+// Thin lens and orthographic projection: connect() must invert
+// generate_ray(), a point at the focus distance must image to one raster
+// position whatever the lens sample, and a point off focus to a disk whose
+// radius is the circle of confusion.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <prism/prism.hpp>
+
+using namespace prism;
+
+namespace {
+double ray_point_distance(const Ray& r, const Point3f& p) {
+  Vector3f d = normalize(r.d);
+  Vector3f v = p - r.o;
+  return double(length(v - d * dot(v, d)));
+}
+}  // namespace
+
+TEST_CASE("thin lens: a point at the focus distance images into one raster position", "[cameras][lens]") {
+  const int w = 200, h = 100;
+  const Float focus = 4, radius = 0.1f;
+  PerspectiveCamera cam(look_at_camera_to_world({0, 0, 0}, {0, 0, -1}, {0, 1, 0}), radians(40), w, h, radius, focus);
+  Point3f p{0.3f, -0.2f, -focus};  // camera space z = focus (the camera looks along world -z)
+  auto ref = cam.connect(p, {0.5f, 0.5f});
+  REQUIRE(ref);
+  PCG32 rng(0, 3);
+  for (int i = 0; i < 1000; ++i) {
+    Point2f u{rng.next_float(), rng.next_float()};
+    auto c = cam.connect(p, u);
+    REQUIRE(c);
+    CHECK(std::abs(c->p_raster.x - ref->p_raster.x) < 2e-3f);
+    CHECK(std::abs(c->p_raster.y - ref->p_raster.y) < 2e-3f);
+    // The camera ray through that raster position and lens sample passes through p.
+    Ray r = cam.generate_ray(CameraSample{c->p_raster, u});
+    CHECK(ray_point_distance(r, p) < 1e-4);
+  }
+}
+
+TEST_CASE("thin lens: a point off focus images into the circle of confusion", "[cameras][lens]") {
+  const int w = 200, h = 200;
+  const Float focus = 4, radius = 0.1f, fov = radians(40);
+  PerspectiveCamera cam(look_at_camera_to_world({0, 0, 0}, {0, 0, -1}, {0, 1, 0}), fov, w, h, radius, focus);
+  for (Float depth : {2.f, 8.f}) {
+    Point3f p{0, 0, -depth};
+    // Raster radius of the blur disk: R |1 - f/d| / (f s), s = 2 tan(fov/2) / h.
+    const double s = 2 * std::tan(double(fov) / 2) / h;
+    const double coc = radius * std::abs(1 - double(focus) / depth) / (double(focus) * s);
+    double max_r = 0, mean_r2 = 0;
+    PCG32 rng(0, 5);
+    const int n = 20000;
+    for (int i = 0; i < n; ++i) {
+      Point2f u{rng.next_float(), rng.next_float()};
+      auto c = cam.connect(p, u);
+      REQUIRE(c);
+      double dx = c->p_raster.x - w / 2.0, dy = c->p_raster.y - h / 2.0;
+      double r = std::sqrt(dx * dx + dy * dy);
+      max_r = std::max(max_r, r);
+      mean_r2 += r * r / n;
+      Ray ray = cam.generate_ray(CameraSample{c->p_raster, u});
+      CHECK(ray_point_distance(ray, p) < 1e-4 * depth);
+    }
+    INFO("depth " << depth << ": circle of confusion " << coc << " px, largest radius " << max_r);
+    CHECK(max_r <= coc * 1.0001 + 1e-3);
+    CHECK(max_r >= coc * 0.99);
+    // Uniform over the disk: E[r^2] = coc^2 / 2, within 4 standard errors (var r^2 = coc^4 / 12).
+    CHECK(std::abs(mean_r2 - coc * coc / 2) <= 4 * coc * coc / std::sqrt(12.0 * n));
+  }
+}
+
+TEST_CASE("orthographic camera: parallel rays, and connect inverts generate_ray", "[cameras][orthographic]") {
+  const int w = 64, h = 32;
+  OrthographicCamera cam(look_at_camera_to_world({1, 2, 5}, {1, 2, 0}, {0, 1, 0}), 2.f, w, h);
+  Ray a = cam.generate_ray(CameraSample{{0.5f, 0.5f}, {}}), b = cam.generate_ray(CameraSample{{60.f, 20.f}, {}});
+  CHECK(length(a.d - b.d) < 1e-6f);
+  CHECK(a.d.z == Approx(-1));
+  // The window is 2 units tall and 4 wide.
+  Ray left = cam.generate_ray(CameraSample{{0, 16}, {}}), right = cam.generate_ray(CameraSample{{64, 16}, {}});
+  CHECK(distance(left.o, right.o) == Approx(4).epsilon(1e-5));
+  PCG32 rng(0, 9);
+  for (int i = 0; i < 1000; ++i) {
+    Point2f pf{rng.next_float() * w, rng.next_float() * h};
+    Ray r = cam.generate_ray(CameraSample{pf, {}});
+    Point3f p = r.o + r.d * (1 + 5 * rng.next_float());
+    auto c = cam.connect(p, {});
+    REQUIRE(c);
+    CHECK(c->p_raster.x == Approx(pf.x).margin(1e-3));
+    CHECK(c->p_raster.y == Approx(pf.y).margin(1e-3));
+  }
+  CHECK_FALSE(cam.connect({1, 2, 6}, {}));  // behind the image plane
+  CHECK_THROWS_AS(OrthographicCamera(Transform{}, -1.f, 4, 4), Error);
+}
