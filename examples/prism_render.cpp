@@ -72,6 +72,8 @@ struct Job {
   std::vector<std::string> outputs;
   std::string integrator, filter;
   bool quiet;
+  std::string sampler = "independent";
+  float aperture = 0, focus_distance = 3.75f;
 };
 
 template <class S>
@@ -84,7 +86,15 @@ int run(const Job& job, const char* model) {
   } catch (const Error& e) {
     return fail(e.what());
   }
-  PerspectiveCamera camera = default_camera(job.width, job.height);
+  PerspectiveCamera camera;
+  try {
+    DefaultSceneDesc desc;
+    desc.lens_radius = job.aperture;
+    desc.focus_distance = job.focus_distance;
+    camera = default_camera(job.width, job.height, desc);
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
   Film film(job.width, job.height);
 
   std::signal(SIGINT, [](int) { g_cancel = true; });
@@ -94,6 +104,9 @@ int run(const Job& job, const char* model) {
   opt.seed = job.seed;
   opt.threads = job.threads;
   opt.cancel = &g_cancel;
+  opt.sampler = job.sampler == "sobol"        ? SamplerKind::sobol
+                : job.sampler == "stratified" ? SamplerKind::stratified
+                                              : SamplerKind::independent;
   opt.progress = [&](int done, int total) { bar.update(done, total); };
   PathOptions popt;
   popt.max_depth = job.max_depth;
@@ -112,9 +125,10 @@ int run(const Job& job, const char* model) {
   }
   int used_threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   std::printf(
-      "prism-render: %dx%d, %d spp, %s, %s, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M rays/s, %llu "
-      "dropped%s\n",
-      job.width, job.height, job.spp, model, job.integrator.c_str(), job.filter.c_str(), used_threads, st.seconds,
+      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M "
+      "rays/s, %llu dropped%s\n",
+      job.width, job.height, job.spp, model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
+      used_threads, st.seconds,
       double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
       st.cancelled ? " (cancelled)" : "");
   return st.cancelled ? 130 : 0;
@@ -143,6 +157,11 @@ int main(int argc, char** argv) {
                                      "Spectral rendering (4 sampled wavelengths, XYZ film); default when the scene "
                                      "uses dispersion or measured spectra");
   app.add_flag("--rgb", rgb, "RGB rendering; default when the scene renders exactly in RGB")->excludes(spectral_flag);
+  app.add_option("--sampler", job.sampler,
+                 "independent (PCG32), stratified (multi-jittered) or sobol (Owen-scrambled; best at power-of-2 spp)")
+      ->check(CLI::IsMember({"independent", "stratified", "sobol"}));
+  app.add_option("--aperture", job.aperture, "Thin-lens aperture radius in scene units (0: pinhole)");
+  app.add_option("--focus-distance", job.focus_distance, "Distance of the plane in focus");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
   try {
     app.parse(argc, argv);

@@ -15,6 +15,8 @@
 #include "prism/spectra/dispersion.hpp"
 #include "prism/sampling/pcg32.hpp"
 #include "prism/sampling/warps.hpp"
+#include "prism/sampling/stratified.hpp"
+#include "prism/sampling/sobol.hpp"
 #include "prism/sampling/distribution.hpp"
 #include "prism/geometry/ray.hpp"
 #include "prism/geometry/interaction.hpp"

@@ -26,6 +26,9 @@ expect_error --out /nonexistent-dir/x.png
 expect_error --out "$tmp/x.jpg"
 expect_error --out "$tmp"
 expect_error --spectral --rgb
+expect_error --sampler nope
+expect_error --aperture -1
+expect_error --focus-distance 0
 chmod 500 "$tmp" 2>/dev/null
 if [ "$(id -u)" != 0 ]; then expect_error --out "$tmp/ro.png"; fi
 chmod 700 "$tmp"

@@ -36,10 +36,17 @@ struct DefaultSceneDesc {
   Point3f target{0, 0, 0};
   Vector3f up{0, 1, 0};
   Float fov_y = radians(39.3f);
+  Float lens_radius = 0;         // thin lens aperture radius (0: pinhole)
+  Float focus_distance = 3.75f;  // distance of the plane in focus (the box's centre)
 };
 
 inline PerspectiveCamera default_camera(int width, int height, const DefaultSceneDesc& d = {}) {
-  return PerspectiveCamera(look_at_camera_to_world(d.eye, d.target, d.up), d.fov_y, width, height);
+  if (!(d.lens_radius >= 0) || !std::isfinite(d.lens_radius))
+    throw Error("camera: the aperture radius must be zero or positive, got " + std::to_string(d.lens_radius));
+  if (!(d.focus_distance > 0) || !std::isfinite(d.focus_distance))
+    throw Error("camera: the focus distance must be positive, got " + std::to_string(d.focus_distance));
+  return PerspectiveCamera(look_at_camera_to_world(d.eye, d.target, d.up), d.fov_y, width, height, d.lens_radius,
+                           d.focus_distance);
 }
 
 struct CornellBoxOptions {

@@ -18,12 +18,18 @@
 #include "prism/film/filter.hpp"
 #include "prism/integrators/path.hpp"
 #include "prism/sampling/pcg32.hpp"
+#include "prism/sampling/sobol.hpp"
+#include "prism/sampling/stratified.hpp"
 
 namespace prism {
+
+// Where a pixel sample's numbers come from (sampling/*.hpp, docs/samplers.md).
+enum class SamplerKind { independent, stratified, sobol };
 
 struct RenderOptions {
   int spp = 16;
   uint64_t seed = 0;
+  SamplerKind sampler = SamplerKind::independent;
   int threads = 0;       // 0 = all hardware threads
   int tile_size = 16;
   // Called from worker threads (serialised) after each tile: tiles done, total.
@@ -75,8 +81,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   std::vector<std::atomic<int64_t>> splat_sum(caustics ? size_t(w) * size_t(h) * 3 : 0);
   const double inv_paths = light_paths > 0 ? 1.0 / double(light_paths) : 0.0;
 
-  auto worker = [&] {
-    IndependentSampler sampler(opt.seed);
+  auto work = [&](auto& sampler) {
     RayCounter counter;
     uint64_t my_samples = 0, my_dropped = 0;
     for (;;) {
@@ -153,6 +158,24 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
     samples += my_samples;
     dropped += my_dropped;
     rays += counter.rays;
+  };
+  auto worker = [&] {
+    switch (opt.sampler) {
+      case SamplerKind::stratified: {
+        StratifiedSampler sampler(opt.spp, opt.seed);
+        work(sampler);
+        break;
+      }
+      case SamplerKind::sobol: {
+        SobolSampler sampler(opt.spp, opt.seed);
+        work(sampler);
+        break;
+      }
+      default: {
+        IndependentSampler sampler(opt.seed);
+        work(sampler);
+      }
+    }
   };
 
   std::vector<std::thread> pool;
