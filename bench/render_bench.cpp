@@ -21,38 +21,47 @@ struct Row {
   double seconds, msamples, mrays;
 };
 
-// 1- and 2-thread runs alternate so that a slow phase of the (virtual) machine
-// hits both alike; each figure is the median of its runs.
+// One render of the default scene in colour model S.
 template <class S>
-void bench(const char* colour, std::vector<Row>& rows) {
+prism::RenderStats render_once(const prism::Scene<S>& scene, int threads) {
   using namespace prism;
-  Scene<S> scene;
-  build_cornell_box(scene);
-  scene.build();
   PerspectiveCamera cam = default_camera(width, height);
-  std::vector<RenderStats> st[2];
-  for (int r = 0; r < runs; ++r)
-    for (int t = 0; t < 2; ++t) {
-      Film film(width, height);
-      RenderOptions opt;
-      opt.spp = spp;
-      opt.threads = t + 1;
-      st[t].push_back(render(scene, cam, PathIntegrator{}, film, opt));
-    }
-  for (int t = 0; t < 2; ++t) {
-    std::sort(st[t].begin(), st[t].end(), [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
-    const RenderStats& m = st[t][st[t].size() / 2];
-    rows.push_back({colour, t + 1, m.seconds, double(m.samples) / m.seconds * 1e-6, double(m.rays) / m.seconds * 1e-6});
-  }
+  Film film(width, height);
+  RenderOptions opt;
+  opt.spp = spp;
+  opt.threads = threads;
+  return render(scene, cam, PathIntegrator{}, film, opt);
+}
+
+Row median_row(const char* colour, int threads, std::vector<prism::RenderStats> st) {
+  std::sort(st.begin(), st.end(), [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
+  const prism::RenderStats& m = st[st.size() / 2];
+  return {colour, threads, m.seconds, double(m.samples) / m.seconds * 1e-6, double(m.rays) / m.seconds * 1e-6};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   const char* out_path = argc > 1 ? argv[1] : "bench/results/render.csv";
+  prism::Scene<prism::RGB> rgb_scene;
+  prism::build_cornell_box(rgb_scene);
+  rgb_scene.build();
+  prism::Scene<prism::Spectral> spectral_scene;
+  prism::build_cornell_box(spectral_scene);
+  spectral_scene.build();
+  (void)prism::srgb_to_spectrum_table();  // fitted once, before any timing
+  // RGB and spectral, 1 and 2 threads, alternate run by run so that a slow
+  // phase of the (virtual) machine hits every configuration alike; each
+  // figure is the median of its runs.
+  std::vector<prism::RenderStats> st[2][2];
+  for (int r = 0; r < runs; ++r)
+    for (int t = 0; t < 2; ++t) {
+      st[0][t].push_back(render_once(rgb_scene, t + 1));
+      st[1][t].push_back(render_once(spectral_scene, t + 1));
+    }
   std::vector<Row> rows;
-  bench<prism::RGB>("rgb", rows);
-  bench<prism::Spectral>("spectral", rows);
+  for (int c = 0; c < 2; ++c)
+    for (int t = 0; t < 2; ++t) rows.push_back(median_row(c == 0 ? "rgb" : "spectral", t + 1, st[c][t]));
   std::filesystem::create_directories(std::filesystem::path(out_path).parent_path());
   std::ofstream csv(out_path);
   const char* header =

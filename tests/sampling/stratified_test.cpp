@@ -7,6 +7,7 @@
 // correct code, each at sidak_alpha(1e-3, kChi2Tests). Seeds are fixed, so the
 // outcome is reproducible.
 #include <catch2/catch.hpp>
+#include "support/sampler_estimates.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +20,8 @@
 #include "support/chi2.hpp"
 
 using namespace prism;
+using prism_test::EstimateStats;
+using prism_test::pixel_estimates;
 
 namespace {
 
@@ -221,35 +224,7 @@ TEST_CASE("each stratified sample is uniform over pixels", "[sampling][stratifie
   check_chi2(h3, std::vector<double>(256, pixels / 256.0));
 }
 
-namespace {
 
-struct EstimateStats {
-  double mean = 0, variance = 0;
-};
-
-// Per-pixel estimates of the integral of f over the unit square with spp
-// samples, the point taken from the third call (the "lens" call of the
-// renderer's order: 1D, 2D, 2D); mean and variance of the estimates over pixels.
-template <class Sampler, class F>
-EstimateStats pixel_estimates(Sampler& s, int pixels, int spp, F&& f) {
-  double mean = 0, m2 = 0;
-  for (int p = 0; p < pixels; ++p) {
-    double sum = 0;
-    for (int i = 0; i < spp; ++i) {
-      s.start_pixel_sample(p % 64, p / 64, i);
-      s.get_1d();
-      s.get_2d();
-      Point2f u = s.get_2d();
-      sum += f(double(u.x), double(u.y));
-    }
-    double e = sum / spp, delta = e - mean;
-    mean += delta / (p + 1);
-    m2 += delta * (e - mean);
-  }
-  return {mean, m2 / (pixels - 1)};
-}
-
-}  // namespace
 
 TEST_CASE("stratified sampling has lower variance than independent sampling", "[sampling][stratified][variance]") {
   const int spp = 64, pixels = 4096;

@@ -10,6 +10,28 @@
 
 namespace prism {
 
+namespace detail {
+struct EmittedDirection {
+  Normal3f n;  // the emitting side's normal
+  Vector3f w;
+  Float pdf;   // per solid angle, including the choice of side
+};
+// A direction leaving a diffuse emitter with normal n: cosine-distributed
+// about n, or about either side with probability 1/2 if it emits from both.
+inline std::optional<EmittedDirection> sample_emitted_direction(Normal3f n, bool two_sided, Point2f u_dir,
+                                                                Float u_side) {
+  Float side_pdf = 1;
+  if (two_sided) {
+    side_pdf = 0.5f;
+    if (u_side < 0.5f) n = -n;
+  }
+  Vector3f wl = sample_cosine_hemisphere(u_dir);
+  Float pdf = pdf_cosine_hemisphere(wl.z) * side_pdf;
+  if (!(pdf > 0)) return std::nullopt;
+  return EmittedDirection{n, Frame::from_z(Vector3f(n)).from_local(wl), pdf};
+}
+}  // namespace detail
+
 struct AreaEmission {
   RGB radiance{1};
   Float scale = 1;
@@ -73,19 +95,11 @@ class TriangleAreaLight {
     Vector3f v0(m_p[0]), v1(m_p[1]), v2(m_p[2]);
     Point3f p(v0 * b[0] + v1 * b[1] + v2 * b[2]);
     Vector3f p_err = (abs(v0 * b[0]) + abs(v1 * b[1]) + abs(v2 * b[2])) * gamma(6);
-    Normal3f n = m_n;
-    Float side_pdf = 1;
-    if (m_emission.two_sided) {
-      side_pdf = 0.5f;
-      if (u_side < 0.5f) n = -n;
-    }
-    Vector3f wl = sample_cosine_hemisphere(u_dir);
-    Float pdf_dir = pdf_cosine_hemisphere(wl.z) * side_pdf;
-    if (!(pdf_dir > 0)) return std::nullopt;
-    Vector3f w = Frame::from_z(Vector3f(n)).from_local(wl);
+    auto d = detail::sample_emitted_direction(m_n, m_emission.two_sided, u_dir, u_side);
+    if (!d) return std::nullopt;
     S Le = spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
-    Ray ray{offset_ray_origin(p, p_err, n, w), w};
-    return LightLeSample<S>{Le, ray, n, 1 / m_area, pdf_dir, m_instance, m_primitive};
+    Ray ray{offset_ray_origin(p, p_err, d->n, d->w), d->w};
+    return LightLeSample<S>{Le, ray, d->n, 1 / m_area, d->pdf, m_instance, m_primitive};
   }
 
   template <class W>
@@ -183,19 +197,11 @@ class SphereAreaLight {
     Vector3f nv = sample_uniform_sphere(u_pos);
     Point3f p = m_sphere.center + nv * m_sphere.radius;
     Vector3f p_err = abs(p - Point3f{}) * gamma(5);
-    Normal3f n(nv);
-    Float side_pdf = 1;
-    if (m_emission.two_sided) {
-      side_pdf = 0.5f;
-      if (u_side < 0.5f) n = -n;
-    }
-    Vector3f wl = sample_cosine_hemisphere(u_dir);
-    Float pdf_dir = pdf_cosine_hemisphere(wl.z) * side_pdf;
-    if (!(pdf_dir > 0)) return std::nullopt;
-    Vector3f w = Frame::from_z(Vector3f(n)).from_local(wl);
+    auto d = detail::sample_emitted_direction(Normal3f(nv), m_emission.two_sided, u_dir, u_side);
+    if (!d) return std::nullopt;
     S Le = spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
-    Ray ray{offset_ray_origin(p, p_err, n, w), w};
-    return LightLeSample<S>{Le, ray, n, 1 / m_sphere.area(), pdf_dir, m_instance, 0};
+    Ray ray{offset_ray_origin(p, p_err, d->n, d->w), d->w};
+    return LightLeSample<S>{Le, ray, d->n, 1 / m_sphere.area(), d->pdf, m_instance, 0};
   }
 
   Float pdf_li(const LightSampleContext& ctx, const Vector3f& wi, const SurfaceInteraction& si) const {

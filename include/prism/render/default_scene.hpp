@@ -57,7 +57,7 @@ struct CornellBoxOptions {
   bool prism = true;
   AreaEmission slit{RGB(1.f), 80.f, false};
   Float lens_x = -0.62f, lens_radius = 0.3f, prism_turn = -33;
-  bool gold_sphere = true;  // false: the sphere is white and diffuse
+  bool gold_sphere = true;  // false: the sphere is white and diffuse, and no frosted sphere
   Float gold_alpha = 0.2f;  // GGX alpha of the gold sphere
 };
 
@@ -178,6 +178,11 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
                                             "Au", MicrofacetRoughness(opt.gold_alpha), "rough gold"))
                                       : white;
   scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, sphere_m);
+  // A small rough (frosted) glass sphere on the floor at the front left.
+  if (opt.gold_sphere) {
+    uint32_t frosted = scene.add_material(DielectricMaterial{IOR(1.5f), "frosted glass", MicrofacetRoughness(0.15f)});
+    scene.add_sphere(Sphere{{-0.55f, -0.8f, 0.6f}, 0.2f}, frosted);
+  }
 
   if (!opt.prism) return;
   // The spectrometer: a narrow vertical slit lamp on the left wall, a
