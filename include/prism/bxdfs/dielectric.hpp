@@ -42,6 +42,7 @@
 #include <type_traits>
 #include "prism/bxdfs/bxdf.hpp"
 #include "prism/bxdfs/microfacet.hpp"
+#include "prism/bxdfs/volume.hpp"
 #include "prism/geometry/interaction.hpp"
 #include "prism/spectra/dispersion.hpp"
 
@@ -222,9 +223,11 @@ struct DielectricMaterial {
   IOR ior{1.5f};
   std::string name = "dielectric";
   MicrofacetRoughness roughness{};
+  VolumeAbsorption volume{};  // absorption inside (closed meshes), none by default
 
   void validate() const {
     ior.validate(name);
+    volume.validate(name);
     if (!roughness.is_finite_non_negative()) {
       std::ostringstream s;
       s << "material '" << name << "': roughness (alpha_u, alpha_v) = (" << roughness.alpha_u << ", "
@@ -261,6 +264,8 @@ struct bxdf_traits<DielectricBxDF<S>> {
   // Dispersion cannot be rendered in RGB (one eta for all three channels).
   static bool needs_spectral(const DielectricMaterial& m) { return m.ior.is_dispersive(); }
   static bool has_specular(const DielectricMaterial& m) { return TrowbridgeReitz(m.roughness).effectively_smooth(); }
+  // The absorbing interior, if any (the integrators attenuate inside).
+  static const VolumeAbsorption* volume(const DielectricMaterial& m) { return m.volume.active() ? &m.volume : nullptr; }
 };
 
 // A thin dielectric slab: two parallel smooth interfaces so close that the

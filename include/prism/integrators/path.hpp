@@ -22,6 +22,7 @@
 // PathOptions::light_traced_caustics = false turns the split off.
 #pragma once
 #include <cstdint>
+#include "prism/bxdfs/volume.hpp"
 #include "prism/lights/light.hpp"
 #include "prism/sampling/warps.hpp"
 
@@ -104,6 +105,25 @@ std::optional<BSDFSample<S>> continue_path(const BSDFT& bsdf, const SurfaceInter
   return bs;
 }
 
+// Absorbing interiors (bxdfs/volume.hpp): after a transmission, the path is
+// inside the object if it left the surface against the geometric normal (which
+// points out of closed meshes and spheres); the object's absorption then
+// applies until the next transmission takes it out.
+template <class Scene, class S, class W>
+void update_medium(const Scene& scene, const SurfaceInteraction& si, const BSDFSample<S>& bs, const W& lambda,
+                   std::optional<S>& sigma_a) {
+  if (!bs.is_transmission()) return;
+  if (dot(bs.wi, si.n) < 0)
+    sigma_a = scene.interior_absorption(si, lambda);
+  else
+    sigma_a.reset();
+}
+// Attenuates beta over the segment from the ray's origin to si.
+template <class S>
+void attenuate(S& beta, const std::optional<S>& sigma_a, const Ray& ray, const SurfaceInteraction& si) {
+  if (sigma_a) beta *= transmittance(*sigma_a, distance(ray.o, si.p));
+}
+
 }  // namespace detail
 
 class PathIntegrator {
@@ -124,6 +144,7 @@ class PathIntegrator {
     // vertices only: its emission then belongs to the light-tracing pass.
     const bool split = caustics_active(scene);
     bool caustic_chain = false;
+    std::optional<S> sigma_a;  // absorption of the object the path is inside, if any
     for (int depth = 0;; ++depth) {
       ++counter.rays;
       auto si = scene.intersect(ray);
@@ -131,6 +152,7 @@ class PathIntegrator {
         L += beta * detail::escaped(scene, ray, lambda, bsdf_pdf, depth > 0 && !specular_bounce, prev);
         break;
       }
+      detail::attenuate(beta, sigma_a, ray, *si);
       // Emission hit by the path: weighed against the light sample that could
       // have found it at the previous vertex.
       S Le = detail::emitted(scene, *si, lambda);
@@ -155,6 +177,7 @@ class PathIntegrator {
       prev = LightSampleContext(*si);
       auto bs = detail::continue_path(bsdf, *si, depth, m_opt, sampler, beta, eta_scale, ray);
       if (!bs) break;
+      detail::update_medium(scene, *si, *bs, lambda, sigma_a);
       bsdf_pdf = bs->pdf;
       specular_bounce = bs->is_specular();
       caustic_chain = split && (depth == 0 ? !specular_bounce : caustic_chain && specular_bounce);
@@ -194,10 +217,12 @@ class PathIntegrator {
     if (!le || le->L.is_black()) return;
     S beta = le->L * (abs_dot(le->n, le->ray.d) / (sl->pmf * le->pdf_pos * le->pdf_dir));
     Ray ray = le->ray;
+    std::optional<S> sigma_a;
     for (int specular = 0; specular < m_opt.max_depth; ++specular) {
       ++counter.rays;
       auto si = scene.intersect(ray);
       if (!si) return;
+      detail::attenuate(beta, sigma_a, ray, *si);
       auto bsdf = scene.bsdf(*si, lambda);
       BxDFFlags flags = bsdf.flags();
       if (!any(flags)) return;
@@ -225,6 +250,7 @@ class PathIntegrator {
       if (!bs || !bs->is_specular()) return;
       beta *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
       ray = si->spawn_ray(bs->wi);
+      detail::update_medium(scene, *si, *bs, lambda, sigma_a);
       Float rr = beta.max_component();
       Float u_rr = sampler.get_1d();
       if (specular + 1 >= m_opt.rr_min_depth && rr < 1) {
@@ -278,6 +304,7 @@ class BSDFPathIntegrator {
     using S = typename Scene::spectrum_type;
     S L{}, beta(1);
     Float eta_scale = 1;
+    std::optional<S> sigma_a;
     for (int depth = 0;; ++depth) {
       ++counter.rays;
       auto si = scene.intersect(ray);
@@ -285,11 +312,14 @@ class BSDFPathIntegrator {
         L += beta * detail::escaped(scene, ray, lambda, 1, false, LightSampleContext{});
         break;
       }
+      detail::attenuate(beta, sigma_a, ray, *si);
       L += beta * detail::emitted(scene, *si, lambda);
       if (depth == m_opt.max_depth) break;
       auto bsdf = scene.bsdf(*si, lambda);
       if (!any(bsdf.flags())) break;
-      if (!detail::continue_path(bsdf, *si, depth, m_opt, sampler, beta, eta_scale, ray)) break;
+      auto bs = detail::continue_path(bsdf, *si, depth, m_opt, sampler, beta, eta_scale, ray);
+      if (!bs) break;
+      detail::update_medium(scene, *si, *bs, lambda, sigma_a);
     }
     return L;
   }

@@ -171,6 +171,21 @@ class Scene {
     return bsdf_type::from_material(m_materials[size_t(si.material)], si, lambda);
   }
 
+  // The absorption coefficient inside the object hit at si, if its material
+  // has an absorbing volume (bxdf_traits::volume).
+  template <class W>
+  std::optional<S> interior_absorption(const SurfaceInteraction& si, const W& lambda) const {
+    return std::visit(
+        [&](const auto& p) -> std::optional<S> {
+          if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::volume(p); }) {
+            if (const VolumeAbsorption* v = traits_of<std::decay_t<decltype(p)>>::volume(p))
+              return absorption_coefficient<S>(*v, lambda);
+          }
+          return std::nullopt;
+        },
+        m_materials[size_t(si.material)]);
+  }
+
   // True if some material may scatter specularly (a delta lobe), from its
   // bxdf_traits: has_specular(material) when provided, else the static flags.
   bool has_specular() const {
