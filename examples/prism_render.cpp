@@ -73,6 +73,8 @@ struct Job {
   std::string integrator, filter;
   bool quiet;
   std::string sampler = "independent";
+  float exposure_ev = 0;
+  std::string tone_map = "clamp";
   float aperture = 0, focus_distance = 3.75f;
 };
 
@@ -116,9 +118,10 @@ int run(const Job& job, const char* model) {
   };
   RenderStats st = job.filter == "gaussian" ? go(GaussianFilter{}) : go(BoxFilter{});
   Image img = to_image(film);
+  PngOptions png{std::exp2(job.exposure_ev), job.tone_map == "neutral" ? ToneMap::neutral : ToneMap::clamp};
   for (const auto& o : job.outputs) {
     try {
-      write_image(o, img);
+      write_image(o, img, png);
     } catch (const Error& e) {
       return fail(e.what());
     }
@@ -160,6 +163,10 @@ int main(int argc, char** argv) {
   app.add_option("--sampler", job.sampler,
                  "independent (PCG32), stratified (multi-jittered) or sobol (Owen-scrambled; best at power-of-2 spp)")
       ->check(CLI::IsMember({"independent", "stratified", "sobol"}));
+  app.add_option("--exposure", job.exposure_ev, "PNG exposure in stops (EV): pixel values times 2^EV")
+      ->check(CLI::Range(-64.f, 64.f));
+  app.add_option("--tonemap", job.tone_map, "PNG tone mapping: clamp, or neutral (Khronos PBR Neutral)")
+      ->check(CLI::IsMember({"clamp", "neutral"}));
   app.add_option("--aperture", job.aperture, "Thin-lens aperture radius in scene units (0: pinhole)");
   app.add_option("--focus-distance", job.focus_distance, "Distance of the plane in focus");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");

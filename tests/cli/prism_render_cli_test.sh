@@ -29,6 +29,7 @@ expect_error --spectral --rgb
 expect_error --sampler nope
 expect_error --aperture -1
 expect_error --focus-distance 0
+expect_error --tonemap nope
 chmod 500 "$tmp" 2>/dev/null
 if [ "$(id -u)" != 0 ]; then expect_error --out "$tmp/ro.png"; fi
 chmod 700 "$tmp"

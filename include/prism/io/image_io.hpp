@@ -30,12 +30,48 @@ inline void check_image(const Image& img, const std::string& path) {
 }
 }  // namespace detail
 
-inline void write_png(const std::string& path, const Image& img, float exposure = 1) {
+// How a linear image becomes display values for PNG: scaled by `exposure`
+// (a multiplier; 2^EV for EV stops), then tone mapped, then sRGB encoded.
+enum class ToneMap {
+  clamp,    // clip each channel to [0, 1]
+  neutral,  // Khronos PBR Neutral: colours below ~0.76 unchanged, highlights compressed towards white
+};
+struct PngOptions {
+  float exposure = 1;
+  ToneMap tone_map = ToneMap::clamp;
+};
+
+// The Khronos PBR Neutral tone mapper (Khronos 3D Commerce, 2024): a small
+// offset darkens near-black values by at most 0.04 (the Fresnel reflectance
+// of a typical dielectric, which it removes), values whose largest channel
+// stays below 0.76 are otherwise kept, and brighter colours are compressed so
+// that their peak approaches 1, desaturating towards white as they do.
+inline RGB tone_map_pbr_neutral(RGB c) {
+  constexpr float start = 0.8f - 0.04f, desaturation = 0.15f;
+  float x = std::min(c.r, std::min(c.g, c.b));
+  float offset = x < 0.08f ? x - 6.25f * x * x : 0.04f;
+  c = c - RGB(offset);
+  float peak = c.max_component();
+  if (peak < start) return c;
+  const float d = 1 - start;
+  float new_peak = 1 - d * d / (peak + d - start);
+  c = c * (new_peak / peak);
+  float g = 1 - 1 / (desaturation * (peak - new_peak) + 1);
+  return c * (1 - g) + RGB(new_peak) * g;
+}
+
+inline void write_png(const std::string& path, const Image& img, const PngOptions& opt = {}) {
   detail::check_image(img, path);
+  if (!(opt.exposure >= 0) || !std::isfinite(opt.exposure))
+    throw Error(path + ": exposure must be finite and non-negative");
   std::vector<unsigned char> px(img.rgb.size());
-  for (size_t i = 0; i < px.size(); ++i) {
-    float v = std::clamp(detail::finite_or_zero(img.rgb[i] * exposure), 0.f, 1.f);
-    px[i] = (unsigned char)std::lround(srgb_encode(v) * 255.f);
+  for (size_t i = 0; i < px.size(); i += 3) {
+    RGB c{detail::finite_or_zero(img.rgb[i] * opt.exposure), detail::finite_or_zero(img.rgb[i + 1] * opt.exposure),
+          detail::finite_or_zero(img.rgb[i + 2] * opt.exposure)};
+    c = clamp_zero(c);
+    if (opt.tone_map == ToneMap::neutral) c = tone_map_pbr_neutral(c);
+    for (int k = 0; k < 3; ++k)
+      px[i + size_t(k)] = (unsigned char)std::lround(srgb_encode(std::clamp(c[k], 0.f, 1.f)) * 255.f);
   }
   if (!stbi_write_png(path.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
     throw Error(path + ": cannot write PNG (is the directory writable?)");
@@ -106,8 +142,8 @@ inline Image read_pfm(const std::string& path) {
 
 inline Image to_image(const Film& film) { return {film.width(), film.height(), film.rgb_buffer()}; }
 
-// Writes by extension: .png, .exr or .pfm.
-inline void write_image(const std::string& path, const Image& img) {
+// Writes by extension: .png (with png's exposure and tone map), .exr or .pfm.
+inline void write_image(const std::string& path, const Image& img, const PngOptions& png = {}) {
   auto ends_with = [&](const char* ext) {
     std::string e(ext);
     if (path.size() < e.size()) return false;
@@ -115,7 +151,7 @@ inline void write_image(const std::string& path, const Image& img) {
     for (auto& c : tail) c = char(std::tolower(static_cast<unsigned char>(c)));
     return tail == e;
   };
-  if (ends_with(".png")) return write_png(path, img);
+  if (ends_with(".png")) return write_png(path, img, png);
   if (ends_with(".exr")) return write_exr(path, img);
   if (ends_with(".pfm")) return write_pfm(path, img);
   throw Error(path + ": unknown image format (use .png, .exr or .pfm)");
