@@ -30,6 +30,7 @@
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/conductor.hpp"
+#include "prism/bxdfs/metal_rough.hpp"
 #include "prism/lights/light.hpp"
 #include "prism/lights/area.hpp"
 #include "prism/lights/infinite.hpp"

@@ -1,0 +1,463 @@
+// prism/bxdfs/metal_rough.hpp — the glTF 2.0 metallic-roughness material
+// (glTF 2.0 specification, Appendix B) with KHR_materials_ior,
+// KHR_materials_specular and KHR_materials_transmission (thin-walled).
+//
+// The model, per channel (RGB) or wavelength (spectral), in the local shading
+// frame; wm is the half vector of wo and wi (of wo and the mirror image of wi
+// for a transmission), c = |wo.wm|, s(c) = (1 - c)^5 (Schlick's weight):
+//
+//   material   = mix(dielectric, metal, metallic)
+//   metal      = specular_brdf * (base + (1 - base) s(c))          (conductor_fresnel)
+//   dielectric = w F(c) specular_brdf                               (the Fresnel layer)
+//              + (1 - T) base / pi * B(|cos_o|) B(|cos_i|)          (diffuse base)
+//              + T base (1 - w Fmax(c)) specular_btdf               (thin transmission)
+//   F(c)       = F0 + (1 - F0) s(c),  F0 = min(((ior - 1)/(ior + 1))^2 specular_color, 1)
+//   Fmax(c)    = the same with F0max = max over channels of F0 (the spec's max_value)
+//   B(mu)      = 1 - w Fmax(mu)
+//
+// with w = specular (KHR_materials_specular's factor: F90 = w), T =
+// transmission, alpha = roughness^2, specular_brdf = D G / (4 |cos_o cos_i|)
+// the Trowbridge–Reitz lobe with the height-correlated Smith G (microfacet.hpp,
+// as the spec's Appendix B writes it), and specular_btdf the same lobe
+// mirrored through the surface: KHR_materials_transmission without
+// KHR_materials_volume describes a thin-walled surface, two back-to-back
+// interfaces, so transmitted light is not bent on average and only the
+// microfacets blur it: specular_btdf(wo, wi) = specular_brdf(wo, wi') with
+// wi' = (wi.x, wi.y, -wi.z) (the transmission half vector of the extension's
+// notes, normalize(V - 2 (N.L) N + L)). No 1/eta^2 factor: the light ends in
+// the medium it came from (BSDFSample::eta = 1).
+//
+// Where this departs from the spec's sample code, and why (docs/bxdfs.md):
+// - Appendix B's fresnel_mix weighs the diffuse base by 1 - F(wo.wm). That
+//   is not energy conserving (the spec says so, "Coupling Diffuse and
+//   Specular Reflection"): at grazing incidence a smooth surface reflects
+//   F ~ 1 specularly and still ~ base diffusely, an albedo near 2. A path
+//   tracer must conserve energy (Appendix B: the BRDF MUST be positive,
+//   reciprocal and energy conserving), so the diffuse base is coupled by the
+//   reciprocal product B(|cos_o|) B(|cos_i|) the spec cites (Burley 2012).
+//   The base then scatters at most B(mu_o) (1 - w Fbar), Fbar the
+//   cosine-weighted mean of Fmax over wi, so the albedo is <= 1 when the
+//   layer's albedo E(mu_o) <= w Fmax(mu_o) + B(mu_o) w Fbar: with equality
+//   short of the slack for a smooth layer (E = w F(mu_o)); for a rough one
+//   the microfacets' spread of wo.wm raises F but masking lowers E, and the
+//   furnace tests check the bound over roughness, angle, ior and colours.
+// - The transmission lobe keeps the half-vector coupling 1 - w Fmax(wo.wm):
+//   it and the Fresnel layer are two fates of light meeting one microfacet, so
+//   together they scatter at most what the microfacet lobe does (<= 1).
+// - The specular weight w scales F90 as well as F0, as KHR_materials_specular
+//   specifies; ior = 0 gives F0 = 1 (KHR_materials_ior's special case).
+//
+// BxDF conventions (bxdf.hpp): eval excludes the cosine; pdf per solid angle;
+// both sides of the surface behave alike (wo.z < 0 mirrors the
+// configuration, like the diffuse BxDF and the conductor). Roughness 0 (any
+// alpha = roughness^2 below TrowbridgeReitz::smooth_alpha, i.e. roughness
+// below 1/64) takes the exact specular path: the Fresnel layer and the metal
+// become one delta reflection (f = F(|cos_o|) / |cos_o|) and the transmission
+// a delta straight through (wi = -wo); the diffuse lobe stays, so the
+// BxDF's flags hold both specular and diffuse lobes. eval and pdf sum the
+// non-specular lobes only; sample() picks a lobe with probability
+// proportional to an estimate of its albedo at wo (lobe_weights()), and
+// returns, for a non-specular lobe, the f and pdf eval() and pdf() give at
+// the sampled direction (the one-sample mixture over all non-specular lobes),
+// so MIS sees one density.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/microfacet.hpp"
+#include "prism/error.hpp"
+#include "prism/geometry/interaction.hpp"
+#include "prism/sampling/warps.hpp"
+#include "prism/spectra/rgb.hpp"
+#include "prism/spectra/traits.hpp"
+
+namespace prism {
+
+namespace detail {
+// Schlick's weight s(c) = (1 - c)^5 and its complement 1 - s(c), the latter
+// as c (5 - 10 c + 10 c^2 - 5 c^3 + c^4): no cancellation for small c, so
+// 1 - F is positive (never rounded to 0) whenever c > 0 and F0 < 1.
+// c is clamped to [0, 1].
+inline Float schlick_weight(Float c) {
+  Float x = 1 - std::clamp(c, Float(0), Float(1));
+  Float x2 = x * x;
+  return x2 * x2 * x;
+}
+inline Float schlick_complement(Float c) {
+  c = std::clamp(c, Float(0), Float(1));
+  return c * (5 + c * (-10 + c * (10 + c * (-5 + c))));
+}
+}  // namespace detail
+
+template <class S>
+class MetalRoughBxDF {
+ public:
+  MetalRoughBxDF() = default;
+  // Parameters already in their domain (bxdf_traits::make clamps them):
+  // base colour and dielectric F0 per channel in [0, 1], f0_max >= every
+  // channel of dielectric_f0, specular, metallic and transmission in [0, 1].
+  MetalRoughBxDF(const TrowbridgeReitz& distrib, const S& base, const S& dielectric_f0, Float f0_max, Float specular,
+                 Float metallic, Float transmission)
+      : m_distrib(distrib),
+        m_base(base),
+        m_f0(dielectric_f0),
+        m_f0_max(f0_max),
+        m_w(specular),
+        m_metallic(metallic),
+        m_diffuse_k((1 - metallic) * (1 - transmission)),
+        m_trans_k((1 - metallic) * transmission),
+        m_base_avg(base.average()) {}
+
+  bool is_smooth() const { return m_distrib.effectively_smooth(); }
+
+  S eval(Vector3f wo, Vector3f wi, TransportMode) const {
+    if (wo.z == 0 || wi.z == 0) return S{};
+    if (wo.z < 0) {
+      wo.z = -wo.z;
+      wi.z = -wi.z;
+    }
+    return eval_up(wo, wi);
+  }
+  Float pdf(Vector3f wo, Vector3f wi, TransportMode) const {
+    if (wo.z == 0 || wi.z == 0) return 0;
+    if (wo.z < 0) {
+      wo.z = -wo.z;
+      wi.z = -wi.z;
+    }
+    return pdf_up(wo, wi, lobe_probabilities(wo.z));
+  }
+
+  // uc chooses the lobe (lobe_weights); u samples within it: a visible
+  // normal for the reflection and the transmission, the cosine-weighted
+  // hemisphere for the diffuse lobe (smooth lobes ignore u).
+  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode) const {
+    if (wo.z == 0) return std::nullopt;
+    const bool flip = wo.z < 0;
+    if (flip) wo.z = -wo.z;
+    const Lobes p = lobe_probabilities(wo.z);
+    int lobe = choose_lobe(p, uc);
+    if (lobe < 0) return std::nullopt;
+    auto out = [&](BSDFSample<S> bs) -> std::optional<BSDFSample<S>> {
+      if (flip) bs.wi.z = -bs.wi.z;
+      return bs;
+    };
+    const Float co = wo.z;
+    if (is_smooth() && lobe != 1) {
+      if (lobe == 0)
+        return out({specular_fresnel(co) / co, Vector3f(-wo.x, -wo.y, wo.z), p.reflection,
+                    BxDFFlags::specular_reflection});
+      return out({m_base * (m_trans_k * base_weight(co) / co), -wo, p.transmission,
+                  BxDFFlags::specular_transmission, 1});
+    }
+    Vector3f wi;
+    BxDFFlags flags;
+    if (lobe == 1) {
+      wi = sample_cosine_hemisphere(u);
+      flags = BxDFFlags::diffuse_reflection;
+    } else {
+      wi = reflect(wo, m_distrib.sample_wm(wo, u));
+      if (!(wi.z > 0)) return std::nullopt;  // the microfacet sends it below the surface
+      if (lobe == 0) {
+        flags = BxDFFlags::glossy_reflection;
+      } else {
+        wi.z = -wi.z;  // through the thin surface
+        flags = BxDFFlags::glossy_transmission;
+      }
+    }
+    if (wi.z == 0) return std::nullopt;
+    S f;
+    Float pdf;
+    eval_pdf_up(wo, wi, p, &f, &pdf);
+    if (!(pdf > 0)) return std::nullopt;
+    return out({f, wi, pdf, flags, 1});
+  }
+
+  BxDFFlags flags() const {
+    BxDFFlags f = BxDFFlags::none;
+    const bool smooth = is_smooth();
+    if (m_metallic > 0 || m_w > 0) f = f | (smooth ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
+    // The base receives nothing when the layer reflects everything (F0 = 1, w = 1).
+    const bool base_lit = m_base_avg > 0 && (m_w < 1 || m_f0_max < 1);
+    if (base_lit && m_diffuse_k > 0) f = f | BxDFFlags::diffuse_reflection;
+    if (base_lit && m_trans_k > 0) f = f | (smooth ? BxDFFlags::specular_transmission : BxDFFlags::glossy_transmission);
+    return f;
+  }
+
+  // The lobe-selection weights at |cos theta_o| = mu (not normalised): the
+  // albedo each lobe would have if the microfacets lost nothing and every
+  // Fresnel factor took one typical value c:
+  //   reflection:   (1 - metallic) w mean(F(c)) + metallic mean(F_metal(c)),
+  //   diffuse:      (1 - metallic)(1 - T) mean(base) B(mu),
+  //   transmission: (1 - metallic) T mean(base) (1 - w Fmax(c)),
+  // means over the channels. Smooth: c = mu exactly (the delta lobes' own
+  // factor). Rough: the microfacets wo sees lean towards it, by about the
+  // distribution's characteristic slope alpha, so c is the cosine between wo
+  // and a normal tilted towards wo by atan(alpha):
+  //   c = (mu + alpha sqrt(1 - mu^2)) / sqrt(1 + alpha^2),
+  // which is mu for alpha = 0, and alpha / sqrt(1 + alpha^2), not 0, at
+  // grazing incidence (with c = mu the transmission of a rough slab seen at
+  // grazing incidence would be picked ~100 times too rarely). The Schlick
+  // weight s(c) is then at least its cosine-weighted mean over the
+  // hemisphere, 2 * integral of (1 - c)^5 c dc = 1/21, so that the reflection
+  // weight is not 0 at normal incidence for F0 = 0 (ior = 1), where its f is
+  // not. Each weight is 0 only where its lobe's f is 0 everywhere.
+  struct Lobes {
+    Float reflection = 0, diffuse = 0, transmission = 0;
+  };
+  Lobes lobe_weights(Float mu) const {
+    Lobes w;
+    Float c = mu;
+    if (!is_smooth()) {
+      Float a = std::max(m_distrib.alpha_x(), m_distrib.alpha_y());
+      c = std::min(Float(1), (mu + a * safe_sqrt(1 - mu * mu)) / std::sqrt(1 + a * a));
+    }
+    Float s = detail::schlick_weight(c);
+    Float sc = detail::schlick_complement(c);  // 1 - s, without cancellation
+    if (!is_smooth() && s < Float(1) / 21) {
+      s = Float(1) / 21;
+      sc = Float(20) / 21;
+    }
+    if (m_w > 0 || m_metallic > 0) {
+      // F = 1 - (1 - F0)(1 - s), per channel.
+      Float d = m_w > 0 ? m_w * (1 - (1 - m_f0.average()) * sc) : 0;
+      Float m = m_metallic > 0 ? 1 - (1 - m_base_avg) * sc : 0;
+      w.reflection = (1 - m_metallic) * d + m_metallic * m;
+    }
+    w.diffuse = m_diffuse_k * m_base_avg * base_weight(mu);
+    w.transmission = m_trans_k * m_base_avg * ((1 - m_w) + m_w * (1 - m_f0_max) * sc);
+    return w;
+  }
+  // lobe_weights normalised to sum to 1 (all 0 if they are).
+  Lobes lobe_probabilities(Float mu) const {
+    Lobes w = lobe_weights(mu);
+    Float total = w.reflection + w.diffuse + w.transmission;
+    if (!(total > 0)) return {};
+    return {w.reflection / total, w.diffuse / total, w.transmission / total};
+  }
+
+  // The Fresnel factors (c = |wo.wm|, or |cos theta| for the base coupling).
+  // Reflection: (1 - metallic) w F(c) + metallic F_metal(c), per channel.
+  S specular_fresnel(Float c) const {
+    Float sc = detail::schlick_complement(c);
+    S out{};
+    if (m_w > 0) out += (S(1) - (S(1) - m_f0) * sc) * ((1 - m_metallic) * m_w);
+    if (m_metallic > 0) out += (S(1) - (S(1) - m_base) * sc) * m_metallic;
+    return out;
+  }
+  // What the Fresnel layer leaves to the base: 1 - w Fmax(c)
+  // = (1 - w) + w (1 - F0max)(1 - s(c)), without cancellation.
+  Float base_weight(Float c) const { return (1 - m_w) + m_w * (1 - m_f0_max) * detail::schlick_complement(c); }
+
+  const TrowbridgeReitz& distribution() const { return m_distrib; }
+  const S& base_color() const { return m_base; }
+  const S& dielectric_f0() const { return m_f0; }
+  Float f0_max() const { return m_f0_max; }
+  Float specular() const { return m_w; }
+  Float metallic() const { return m_metallic; }
+  Float transmission() const { return (1 - m_metallic) > 0 ? m_trans_k / (1 - m_metallic) : 0; }
+
+ private:
+  // The microfacet lobe at (wo, wi), both in the upper hemisphere:
+  // D G / (4 cos_o cos_i), its sampling density G1(wo) D / (4 cos_o), and
+  // c = wo.wm. False where both are 0 (a degenerate half vector, D = 0).
+  struct Microfacet {
+    Float dg = 0, pdf = 0, c = 0;
+  };
+  bool microfacet(const Vector3f& wo, const Vector3f& wi, Microfacet& out) const {
+    Vector3f wm = wo + wi;
+    Float l2 = length_squared(wm);
+    if (!(l2 > 0)) return false;
+    wm = wm / std::sqrt(l2);
+    Float d = m_distrib.D(wm);
+    if (!(d > 0)) return false;
+    out.dg = d * m_distrib.G(wo, wi) / (4 * wo.z * wi.z);
+    out.pdf = m_distrib.G1(wo) * d / (4 * wo.z);
+    out.c = dot(wo, wm);
+    return true;
+  }
+
+  // f (if f is not null) and the pdf (if pdf is not null; with the lobe
+  // probabilities p at wo) for wo.z > 0, wi.z != 0: one microfacet
+  // evaluation serves both.
+  void eval_pdf_up(const Vector3f& wo, const Vector3f& wi, const Lobes& p, S* f, Float* pdf) const {
+    if (f) *f = S{};
+    if (pdf) *pdf = 0;
+    Microfacet mf;
+    if (wi.z > 0) {
+      if (f && m_diffuse_k > 0) *f = m_base * (m_diffuse_k * inv_pi * base_weight(wo.z) * base_weight(wi.z));
+      if (pdf) *pdf = p.diffuse * pdf_cosine_hemisphere(wi.z);
+      if (is_smooth() || !(m_w > 0 || m_metallic > 0) || !microfacet(wo, wi, mf)) return;
+      if (f) *f += specular_fresnel(mf.c) * mf.dg;
+      if (pdf) *pdf += p.reflection * mf.pdf;
+    } else {
+      if (is_smooth() || !(m_trans_k > 0) || !microfacet(wo, Vector3f(wi.x, wi.y, -wi.z), mf)) return;
+      if (f) *f = m_base * (m_trans_k * base_weight(mf.c) * mf.dg);
+      if (pdf) *pdf = p.transmission * mf.pdf;
+    }
+  }
+  S eval_up(const Vector3f& wo, const Vector3f& wi) const {
+    S f;
+    eval_pdf_up(wo, wi, Lobes{}, &f, nullptr);
+    return f;
+  }
+  Float pdf_up(const Vector3f& wo, const Vector3f& wi, const Lobes& p) const {
+    Float pdf;
+    eval_pdf_up(wo, wi, p, nullptr, &pdf);
+    return pdf;
+  }
+  // 0 reflection, 1 diffuse, 2 transmission, -1 none. Never a lobe of
+  // probability 0 (uc near 1 with probabilities that round short of 1).
+  static int choose_lobe(const Lobes& p, Float uc) {
+    int lobe = uc < p.reflection ? 0 : (uc < p.reflection + p.diffuse ? 1 : 2);
+    const Float pr[3] = {p.reflection, p.diffuse, p.transmission};
+    if (pr[lobe] > 0) return lobe;
+    for (int i = 2; i >= 0; --i)
+      if (pr[i] > 0) return i;
+    return -1;
+  }
+
+  TrowbridgeReitz m_distrib;
+  S m_base{}, m_f0{};
+  Float m_f0_max = 0, m_w = 0, m_metallic = 0, m_diffuse_k = 0, m_trans_k = 0, m_base_avg = 0;
+};
+
+// The glTF metallic-roughness material with KHR_materials_ior,
+// KHR_materials_specular and KHR_materials_transmission. Defaults are glTF's
+// (a white, fully metallic, fully rough surface; ior 1.5, specular 1,
+// specular colour 1, no transmission). Emission is not a material
+// property in prism: give the instance an AreaEmission.
+//
+// Domains (bxdf_traits<MetalRoughBxDF<S>>::validate, called by Scene::build):
+// base_color, metallic, roughness, specular, transmission in [0, 1] and
+// specular_color >= 0 are clamped into their domain, with one warning per
+// material on std::cerr; NaN or infinite values, and an ior below 1 other
+// than exactly 0, throw prism::Error (no value is a sensible stand-in).
+struct MetalRoughMaterial {
+  RGB base_color{1};
+  Float metallic = 1, roughness = 1;
+  Float ior = 1.5f;               // KHR_materials_ior: >= 1, or 0 for F0 = 1
+  Float specular = 1;             // KHR_materials_specular: specularFactor
+  RGB specular_color{1};          // KHR_materials_specular: specularColorFactor (may exceed 1)
+  Float transmission = 0;         // KHR_materials_transmission: transmissionFactor (thin-walled)
+  std::string name = "metal_rough";
+
+  // The dielectric F0 from ior alone: ((ior - 1) / (ior + 1))^2; 1 for ior = 0.
+  static Float f0_from_ior(Float ior) {
+    if (ior == 0) return 1;
+    if (!(ior > 0) || !std::isfinite(ior)) return Float(0.04);  // rejected by validate
+    return sqr((ior - 1) / (ior + 1));
+  }
+};
+
+namespace detail {
+// A MetalRoughMaterial's numbers clamped into their domain (what make()
+// renders); `clamped` lists what changed, for validate's warning.
+struct MetalRoughParams {
+  RGB base{0}, dielectric_f0{0};
+  Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
+};
+inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
+inline MetalRoughParams clamp_metal_rough(const MetalRoughMaterial& m, std::string* clamped = nullptr) {
+  MetalRoughParams p;
+  auto note = [&](const char* what, Float from, Float to) {
+    if (!clamped || from == to || std::isnan(from)) return;
+    std::ostringstream s;
+    s << (clamped->empty() ? "" : ", ") << what << " " << from << " -> " << to;
+    *clamped += s.str();
+  };
+  static const char* channel_names[3] = {"base_color.r", "base_color.g", "base_color.b"};
+  static const char* spec_names[3] = {"specular_color.r", "specular_color.g", "specular_color.b"};
+  for (int i = 0; i < 3; ++i) {
+    p.base[i] = unit_or_zero(m.base_color[i]);
+    note(channel_names[i], m.base_color[i], p.base[i]);
+  }
+  p.metallic = unit_or_zero(m.metallic);
+  note("metallic", m.metallic, p.metallic);
+  p.roughness = unit_or_zero(m.roughness);
+  note("roughness", m.roughness, p.roughness);
+  p.specular = unit_or_zero(m.specular);
+  note("specular", m.specular, p.specular);
+  p.transmission = unit_or_zero(m.transmission);
+  note("transmission", m.transmission, p.transmission);
+  Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
+  for (int i = 0; i < 3; ++i) {
+    Float sc = m.specular_color[i] > 0 && std::isfinite(m.specular_color[i]) ? m.specular_color[i] : Float(0);
+    note(spec_names[i], m.specular_color[i], sc);
+    p.dielectric_f0[i] = std::min(f0 * sc, Float(1));  // KHR_materials_specular clamps the product
+  }
+  return p;
+}
+}  // namespace detail
+
+template <class S>
+struct bxdf_traits<MetalRoughBxDF<S>> {
+  static constexpr std::string_view name = "metal_rough";
+  static constexpr BxDFFlags flags = BxDFFlags::specular_reflection | BxDFFlags::glossy_reflection |
+                                     BxDFFlags::diffuse_reflection | BxDFFlags::specular_transmission |
+                                     BxDFFlags::glossy_transmission;
+  using material_type = MetalRoughMaterial;
+
+  // Clamps (silently: validate warned when the scene was built), uplifts the
+  // base colour and the dielectric F0 colour as reflectances, alpha =
+  // roughness^2. F0max is the largest channel of the RGB F0, or of its
+  // uplift at the path's wavelengths if larger (a smooth spectrum may peak
+  // above its RGB channels): energy is conserved at every wavelength.
+  template <class W>
+  static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction&, const W& lambda) {
+    detail::MetalRoughParams p = detail::clamp_metal_rough(m);
+    S base = spectrum_traits<S>::albedo(p.base, lambda);
+    S f0 = spectrum_traits<S>::albedo(p.dielectric_f0, lambda);
+    Float f0_max = std::min(std::max(p.dielectric_f0.max_component(), f0.max_component()), Float(1));
+    return MetalRoughBxDF<S>(TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)), base, f0, f0_max,
+                             p.specular, p.metallic, p.transmission);
+  }
+
+  // Throws prism::Error, prefixed by `where` and naming the material, on a
+  // NaN or infinite parameter and on an ior below 1 other than 0. Prints one
+  // warning line to std::cerr listing every parameter clamped into its
+  // domain (base_color, metallic, roughness, specular, transmission outside
+  // [0, 1], a negative specular_color channel).
+  static void validate(const MetalRoughMaterial& m, std::string_view where) {
+    auto fail = [&](const std::string& what) {
+      throw Error(std::string(where) + ": material '" + m.name + "': " + what);
+    };
+    auto check_finite = [&](const char* what, Float v) {
+      if (!std::isfinite(v)) {
+        std::ostringstream s;
+        s << what << " = " << v << " must be finite";
+        fail(s.str());
+      }
+    };
+    for (int i = 0; i < 3; ++i) check_finite("base_color", m.base_color[i]);
+    check_finite("metallic", m.metallic);
+    check_finite("roughness", m.roughness);
+    check_finite("ior", m.ior);
+    check_finite("specular", m.specular);
+    for (int i = 0; i < 3; ++i) check_finite("specular_color", m.specular_color[i]);
+    check_finite("transmission", m.transmission);
+    if (m.ior != 0 && !(m.ior >= 1)) {
+      std::ostringstream s;
+      s << "ior = " << m.ior << " must be >= 1 (or exactly 0 for F0 = 1, as in KHR_materials_ior)";
+      fail(s.str());
+    }
+    std::string clamped;
+    detail::clamp_metal_rough(m, &clamped);
+    if (!clamped.empty())
+      std::cerr << "prism: warning: " << where << ": material '" << m.name << "': clamped " << clamped << "\n";
+  }
+  static bool needs_spectral(const MetalRoughMaterial&) { return false; }
+  // Delta lobes: a smooth surface (roughness^2 below the threshold) that
+  // reflects or transmits anything specularly.
+  static bool has_specular(const MetalRoughMaterial& m) {
+    detail::MetalRoughParams p = detail::clamp_metal_rough(m);
+    if (!TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)).effectively_smooth()) return false;
+    return p.metallic > 0 || p.specular > 0 || p.transmission > 0;
+  }
+};
+
+}  // namespace prism

@@ -1,0 +1,603 @@
+// The glTF metallic-roughness BxDF (bxdfs/metal_rough.hpp): sampling against
+// pdf (chi-squared on hemispheres and on windows fitted to narrow lobes,
+// including the lobe probabilities through the mass outside each window),
+// the white furnace (<= 1; exactly 1 where the model is lossless), eval
+// against an independent transcription of the model, reciprocity of
+// reflection and thin transmission, sample/eval/pdf agreement, the exact
+// specular path, finiteness at grazing angles, and the material's
+// validation (clamps with one warning, throws where no clamp makes sense).
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include <prism/bxdfs/bsdf.hpp>
+#include <prism/bxdfs/metal_rough.hpp>
+#include <prism/render/scene.hpp>
+#include <prism/spectra/traits.hpp>
+#include "bxdfs/bxdf_check.hpp"
+
+using namespace prism;
+using namespace bxdf_check;
+
+namespace {
+using S4 = SampledSpectrum<4>;
+using W4 = SampledWavelengths<4>;
+static_assert(BxDFLike<MetalRoughBxDF<RGB>, RGB>);
+static_assert(BxDFLike<MetalRoughBxDF<S4>, S4>);
+
+const Float test_roughness[] = {0.001f, 0.05f, 0.3f, 1.0f};
+const double test_angles[] = {0.0, 45.0, 80.0, 89.9};
+const Float test_metallic[] = {0.f, 0.5f, 1.f};
+
+W4 fixed_wavelengths() { return W4::from({430, 520, 610, 680}, {1 / 470.f, 1 / 470.f, 1 / 470.f, 1 / 470.f}); }
+
+MetalRoughMaterial material(Float roughness, Float metallic, Float transmission = 0,
+                            RGB base = RGB(0.9f, 0.6f, 0.3f)) {
+  MetalRoughMaterial m;
+  m.base_color = base;
+  m.metallic = metallic;
+  m.roughness = roughness;
+  m.transmission = transmission;
+  m.name = "test";
+  return m;
+}
+
+template <class S>
+MetalRoughBxDF<S> make_bxdf(const MetalRoughMaterial& m) {
+  SurfaceInteraction si;
+  if constexpr (std::is_same_v<S, RGB>)
+    return bxdf_traits<MetalRoughBxDF<S>>::make(m, si, RGBWavelengths{});
+  else
+    return bxdf_traits<MetalRoughBxDF<S>>::make(m, si, fixed_wavelengths());
+}
+
+// The thin transmission lobe is the reflection lobe mirrored through the surface.
+Vector3f flip_z(Vector3f v) { return {v.x, v.y, -v.z}; }
+
+// ---- chi-squared --------------------------------------------------------
+struct Chi2Run {
+  std::string label;
+  prism_test::Chi2Result result;
+};
+
+// The windows for one BxDF and wo: for a narrow rough lobe (alpha < 0.2)
+// windows fitted to the reflection and (if any) transmission lobes, where a
+// whole-hemisphere grid would put the lobe in one cell; otherwise the whole
+// front hemisphere and (if it transmits) the back one. Smooth: the front
+// hemisphere holds the diffuse lobe, and the delta samples (passed as
+// failures) must match the pdf's missing mass. Samples outside a window go
+// to the extra cell, whose expected count is n (1 - the pdf's mass in the
+// window): that checks the lobe probabilities as well.
+template <class S>
+void chi2_config(const MetalRoughBxDF<S>& bxdf, const Vector3f& wo, Float alpha, const std::string& label,
+                 PCG32& rng, std::vector<Chi2Run>& runs) {
+  auto sample = [&]() -> std::optional<Vector3f> {
+    auto bs = bxdf.sample(wo, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
+    if (!bs || bs->is_specular()) return std::nullopt;
+    return bs->wi;
+  };
+  auto pdf = [&](const Vector3f& wi) { return bxdf.pdf(wo, wi, TransportMode::radiance); };
+  const int side = wo.z > 0 ? 1 : -1;
+  const bool transmits = any(bxdf.flags() & BxDFFlags::transmission);
+  const auto p = bxdf.lobe_probabilities(std::abs(wo.z));
+  struct W {
+    const char* name;
+    Window w;
+    double share;
+  };
+  std::vector<W> windows;
+  if (bxdf.is_smooth() || alpha >= 0.2f) {
+    windows.push_back({"front", hemisphere_window(side), 1});
+    if (transmits && !bxdf.is_smooth()) windows.push_back({"back", hemisphere_window(-side), 1});
+  } else {
+    auto reflected = [&](const Vector3f& m) -> std::optional<Vector3f> {
+      Vector3f wi = reflect(wo, m);
+      return same_hemisphere(wo, wi) ? std::optional<Vector3f>(wi) : std::nullopt;
+    };
+    auto transmitted = [&](const Vector3f& m) -> std::optional<Vector3f> {
+      Vector3f wi = reflect(wo, m);
+      return same_hemisphere(wo, wi) ? std::optional<Vector3f>(flip_z(wi)) : std::nullopt;
+    };
+    windows.push_back({"reflection", lobe_window(reflected, Vector3f(-wo.x, -wo.y, wo.z), alpha, alpha), p.reflection});
+    if (transmits) windows.push_back({"transmission", lobe_window(transmitted, -wo, alpha, alpha), p.transmission});
+  }
+  // Lobe choice: the frequency of each lobe's samples against its probability
+  // (binomial, 4.5 sigma). chi-squared over hundreds of cells has little power
+  // against a few percent of mass moved between lobes; this has.
+  {
+    const int n = 20000;
+    int count[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      auto bs = bxdf.sample(wo, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
+      if (!bs) continue;  // a rough lobe sent below the surface: counted against its lobe's expectation
+      count[any(bs->flags & BxDFFlags::diffuse) ? 1 : (bs->is_transmission() ? 2 : 0)] += 1;
+    }
+    const double pr[3] = {p.reflection, p.diffuse, p.transmission};
+    for (int l = 0; l < 3; ++l) {
+      double mean = n * pr[l], sd = std::sqrt(n * pr[l] * (1 - pr[l]));
+      INFO(label << " lobe " << l << ": " << count[l] << " samples, expected " << mean << " +- " << sd);
+      // Failed samples (a reflection below the horizon) only lower a rough lobe's count.
+      CHECK(count[l] <= mean + 4.5 * sd + 1);
+      if (bxdf.is_smooth() || l == 1) CHECK(count[l] >= mean - 4.5 * sd - 1);
+    }
+  }
+  for (const auto& w : windows) {
+    size_t n = size_t(std::min(150000.0, 25000 / std::max(w.share, 0.15)));
+    auto r = chi2_window(sample, pdf, w.w, Chi2Config{n, 20, 20});
+    runs.push_back({label + " " + w.name, r});
+    if (std::getenv("PRISM_CHI2_VERBOSE")) std::printf("%s %s: %s\n", label.c_str(), w.name, r.summary().c_str());
+  }
+}
+
+template <class S>
+void chi2_sweep(PCG32& rng, std::vector<Chi2Run>& runs) {
+  for (Float r : test_roughness)
+    for (Float m : test_metallic)
+      for (Float t : {0.f, 0.5f})
+        for (double side : {1.0, -1.0}) {
+          if (side < 0 && r != 0.3f) continue;  // the back side: one roughness suffices (it mirrors the front)
+          auto bxdf = make_bxdf<S>(material(r, m, t));
+          const Float alpha = r * r;
+          for (double theta : test_angles) {
+            std::ostringstream label;
+            label << (is_spectral_v<S> ? "spectral" : "RGB") << " roughness " << r << " metallic " << m
+                  << " transmission " << t << " theta " << theta << " side " << side;
+            chi2_config(bxdf, direction_at(theta, 0.7, side), alpha, label.str(), rng, runs);
+          }
+        }
+}
+
+// ---- an independent transcription of the model, in double -----------------
+// From the formulas in metal_rough.hpp's header comment, sharing only D and
+// G with the code under test.
+struct Reference {
+  MetalRoughMaterial m;
+  double eval(const Vector3f& wo_in, const Vector3f& wi_in, int ch) const {
+    Vector3f wo = wo_in, wi = wi_in;
+    if (wo.z < 0) {
+      wo = flip_z(wo);
+      wi = flip_z(wi);
+    }
+    double base = std::clamp(double(m.base_color[ch]), 0.0, 1.0);
+    double f0_ior = m.ior == 0 ? 1.0 : std::pow((m.ior - 1.0) / (m.ior + 1.0), 2);
+    double f0 = std::min(f0_ior * m.specular_color[ch], 1.0);
+    double f0_max = std::min(f0_ior * double(m.specular_color.max_component()), 1.0);
+    double w = m.specular, metal = m.metallic, T = m.transmission;
+    auto s = [](double c) { return std::pow(1 - c, 5); };
+    auto B = [&](double c) { return 1 - w * (f0_max + (1 - f0_max) * s(c)); };
+    TrowbridgeReitz d(MicrofacetRoughness::from_perceptual(m.roughness));
+    auto lobe = [&](const Vector3f& a, const Vector3f& b, double& c) {
+      Vector3f h = normalize(a + b);
+      c = dot(a, h);
+      return double(d.D(h)) * d.G(a, b) / (4.0 * a.z * b.z);
+    };
+    double f = 0;
+    if (wi.z > 0) {
+      f += (1 - metal) * (1 - T) * base / pi_d * B(wo.z) * B(wi.z);
+      double c;
+      double dg = lobe(wo, wi, c);
+      f += dg * ((1 - metal) * w * (f0 + (1 - f0) * s(c)) + metal * (base + (1 - base) * s(c)));
+    } else {
+      double c;
+      double dg = lobe(wo, flip_z(wi), c);
+      f += (1 - metal) * T * base * B(c) * dg;
+    }
+    return f;
+  }
+  // The mixture density for lobe probabilities p (the BxDF's own: any
+  // positive estimate is valid, but sample() and pdf() must use the same):
+  // cosine-weighted diffuse, and the visible-normal density G1(wo) D / (4 cos_o)
+  // for the reflection and the mirrored transmission.
+  template <class L>
+  double pdf(const Vector3f& wo_in, const Vector3f& wi_in, const L& p) const {
+    Vector3f wo = wo_in, wi = wi_in;
+    if (wo.z < 0) {
+      wo = flip_z(wo);
+      wi = flip_z(wi);
+    }
+    TrowbridgeReitz d(MicrofacetRoughness::from_perceptual(m.roughness));
+    auto vndf = [&](const Vector3f& b) { return double(d.G1(wo)) * d.D(normalize(wo + b)) / (4.0 * wo.z); };
+    if (wi.z > 0) return p.diffuse * wi.z / pi_d + p.reflection * vndf(wi);
+    return p.transmission * vndf(flip_z(wi));
+  }
+};
+
+// Directional albedo per channel (f |cos| / pdf over the BxDF's samples).
+template <class S>
+std::array<Albedo, S::size> albedo_all(const MetalRoughBxDF<S>& b, const Vector3f& wo, size_t n, PCG32& rng) {
+  std::array<double, S::size> s{}, s2{};
+  for (size_t i = 0; i < n; ++i) {
+    auto bs = b.sample(wo, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
+    if (!bs || !(bs->pdf > 0)) continue;
+    for (int c = 0; c < S::size; ++c) {
+      double v = double(bs->f[c]) * abs_cos_theta(bs->wi) / bs->pdf;
+      s[size_t(c)] += v;
+      s2[size_t(c)] += v * v;
+    }
+  }
+  std::array<Albedo, S::size> out;
+  for (size_t c = 0; c < size_t(S::size); ++c) {
+    double mean = s[c] / double(n), var = std::max(0.0, s2[c] / double(n) - mean * mean) / double(n - 1);
+    out[c] = {mean, std::sqrt(var)};
+  }
+  return out;
+}
+
+// Redirects std::cerr while alive.
+struct CerrCapture {
+  std::ostringstream text;
+  std::streambuf* old;
+  CerrCapture() : old(std::cerr.rdbuf(text.rdbuf())) {}
+  ~CerrCapture() { std::cerr.rdbuf(old); }
+  int lines() const {
+    std::string s = text.str();
+    return int(std::count(s.begin(), s.end(), '\n'));
+  }
+};
+}  // namespace
+
+TEST_CASE("metal-rough sample matches pdf by chi-squared over roughness, metallic, transmission, RGB and spectral", "[bxdfs][metal_rough][chi2]") {
+  PCG32 rng(2024, 5);
+  std::vector<Chi2Run> runs;
+  chi2_sweep<RGB>(rng, runs);
+  chi2_sweep<S4>(rng, runs);
+  const double level = prism_test::sidak_alpha(1e-3, int(runs.size()));
+  double min_p = 1, max_p = 0;
+  for (const auto& r : runs) {
+    INFO(r.label << ": " << r.result.summary());
+    CHECK(r.result.p_value >= level);
+    min_p = std::min(min_p, r.result.p_value);
+    max_p = std::max(max_p, r.result.p_value);
+  }
+  CHECK(runs.size() > 300);
+  WARN("metal-rough chi2: " << runs.size() << " tests, p in [" << min_p << ", " << max_p << "], level " << level);
+}
+
+TEST_CASE("metal-rough white furnace is at most 1, and exactly 1 where the model is lossless", "[bxdfs][metal_rough][furnace]") {
+  PCG32 rng(77, 9);
+  struct Variant {
+    const char* name;
+    Float ior, specular;
+    RGB specular_color;
+  };
+  const Variant variants[] = {{"default", 1.5f, 1, RGB(1)},
+                              {"ior 1 (F0 = 0)", 1.0f, 1, RGB(1)},
+                              {"ior 0 (F0 = 1)", 0.0f, 1, RGB(1)},
+                              {"coloured specular", 1.5f, 0.5f, RGB(3, 1, 0.2f)},
+                              {"ior 2.4, specular colour 10", 2.4f, 1, RGB(10)}};
+  double worst = 0, worst_z = -1e9;
+  std::string worst_at;
+  int checked = 0;
+  for (const auto& v : variants)
+    for (Float r : {0.f, 0.05f, 0.3f, 1.f})
+      for (Float m : {0.f, 0.5f, 1.f})
+        for (Float t : {0.f, 0.5f, 1.f}) {
+          if (m == 1 && t > 0) continue;  // a metal ignores transmission
+          MetalRoughMaterial mat = material(r, m, t, RGB(1));
+          mat.ior = v.ior;
+          mat.specular = v.specular;
+          mat.specular_color = v.specular_color;
+          auto b = make_bxdf<RGB>(mat);
+          for (double theta : test_angles) {
+            auto a = albedo_all(b, direction_at(theta), 20000, rng);
+            for (int c = 0; c < 3; ++c) {
+              INFO(v.name << " roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta
+                          << " channel " << c << ": " << a[size_t(c)].mean << " +- " << a[size_t(c)].sigma);
+              CHECK(a[size_t(c)].mean <= 1 + 4 * a[size_t(c)].sigma + 1e-6);
+              ++checked;
+              double z = a[size_t(c)].sigma > 0 ? (a[size_t(c)].mean - 1 - 1e-6) / a[size_t(c)].sigma : -1e9;
+              if (a[size_t(c)].mean > worst) {
+                worst = a[size_t(c)].mean;
+                std::ostringstream s;
+                s << v.name << " roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta;
+                worst_at = s.str();
+              }
+              worst_z = std::max(worst_z, z);
+            }
+          }
+        }
+  // Spectral: the same bound per wavelength, for a coloured base and F0.
+  for (Float r : {0.f, 0.3f, 1.f})
+    for (Float m : {0.f, 0.5f})
+      for (Float t : {0.f, 0.5f}) {
+        MetalRoughMaterial mat = material(r, m, t, RGB(1, 0.9f, 0.2f));
+        mat.specular_color = RGB(2, 0.5f, 1);
+        auto b = make_bxdf<S4>(mat);
+        for (double theta : test_angles) {
+          auto a = albedo_all(b, direction_at(theta), 20000, rng);
+          for (int c = 0; c < 4; ++c) {
+            INFO("spectral roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta
+                                       << " wavelength " << c << ": " << a[size_t(c)].mean);
+            CHECK(a[size_t(c)].mean <= 1 + 4 * a[size_t(c)].sigma + 1e-6);
+          }
+        }
+      }
+  WARN("metal-rough furnace: " << checked << " RGB estimates, largest albedo " << worst << " (" << worst_at
+                               << "), largest (albedo - 1) / sigma " << worst_z);
+  // Lossless cases, where every sample weighs exactly 1: a white Lambertian
+  // base without a layer (specular 0), a white smooth metal (F = 1), and a
+  // white smooth thin slab (the layer reflects F, the slab transmits 1 - F).
+  for (double theta : test_angles) {
+    MetalRoughMaterial lambert = material(0.3f, 0, 0, RGB(1));
+    lambert.specular = 0;
+    MetalRoughMaterial mirror = material(0, 1, 0, RGB(1));
+    MetalRoughMaterial slab = material(0, 0, 1, RGB(1));
+    for (const auto& mat : {lambert, mirror, slab}) {
+      auto a = albedo_all(make_bxdf<RGB>(mat), direction_at(theta), 2000, rng);
+      INFO("lossless: metallic " << mat.metallic << " transmission " << mat.transmission << " theta " << theta);
+      for (int c = 0; c < 3; ++c) CHECK(a[size_t(c)].mean == Approx(1).margin(1e-5));
+    }
+  }
+}
+
+TEST_CASE("metal-rough eval and pdf match an independent transcription of the glTF model with its extensions", "[bxdfs][metal_rough][model]") {
+  PCG32 rng(5, 17);
+  std::vector<MetalRoughMaterial> mats;
+  for (Float r : {0.05f, 0.3f, 1.f})
+    for (Float m : {0.f, 0.3f, 1.f})
+      for (Float t : {0.f, 0.6f}) {
+        MetalRoughMaterial a = material(r, m, t);
+        mats.push_back(a);
+        a.ior = 1.33f;
+        a.specular = 0.7f;
+        a.specular_color = RGB(1.5f, 0.4f, 2);
+        mats.push_back(a);
+        a.ior = 0;
+        mats.push_back(a);
+      }
+  int compared = 0;
+  for (const auto& mat : mats) {
+    auto b = make_bxdf<RGB>(mat);
+    Reference ref{mat};
+    for (int i = 0; i < 200; ++i) {
+      Vector3f wo = sample_uniform_sphere({rng.next_float(), rng.next_float()});
+      Vector3f wi = sample_uniform_sphere({rng.next_float(), rng.next_float()});
+      if (std::abs(wo.z) < 1e-3f || std::abs(wi.z) < 1e-3f) continue;
+      RGB f = b.eval(wo, wi, TransportMode::radiance);
+      {
+        INFO("pdf: roughness " << mat.roughness << " metallic " << mat.metallic << " transmission "
+                               << mat.transmission << " ior " << mat.ior << " wo.z " << wo.z << " wi.z " << wi.z);
+        CHECK(b.pdf(wo, wi, TransportMode::radiance) ==
+              Approx(ref.pdf(wo, wi, b.lobe_probabilities(std::abs(wo.z)))).epsilon(2e-4).margin(1e-6));
+      }
+      for (int c = 0; c < 3; ++c) {
+        double expected = ref.eval(wo, wi, c);
+        INFO("roughness " << mat.roughness << " metallic " << mat.metallic << " transmission " << mat.transmission
+                          << " ior " << mat.ior << " channel " << c << " wo.z " << wo.z << " wi.z " << wi.z);
+        CHECK(f[c] == Approx(expected).epsilon(2e-4).margin(1e-6));
+        ++compared;
+      }
+      CHECK(b.eval(wo, wi, TransportMode::importance) == f);  // no eta: thin, and reflection
+    }
+  }
+  CHECK(compared > 10000);
+  // Special cases of the spec: metallic 0, specular 0 is Lambert; ior 0 with
+  // specular colour 1 is a white mirror layer (F = 1) that leaves nothing to
+  // the base.
+  MetalRoughMaterial lambert = material(0.5f, 0, 0, RGB(0.2f, 0.5f, 0.8f));
+  lambert.specular = 0;
+  RGB f = make_bxdf<RGB>(lambert).eval(direction_at(30), direction_at(60, 2.5), TransportMode::radiance);
+  CHECK(f.r == Approx(0.2 / pi_d));
+  CHECK(f.b == Approx(0.8 / pi_d));
+  MetalRoughMaterial full = material(0, 0, 0.5f, RGB(0.5f));
+  full.ior = 0;
+  auto b = make_bxdf<RGB>(full);
+  CHECK(b.base_weight(0.3f) == 0);
+  CHECK(b.flags() == BxDFFlags::specular_reflection);
+  CHECK(b.specular_fresnel(0.3f) == RGB(1));
+}
+
+TEST_CASE("metal-rough reflection and thin transmission are reciprocal, sample agrees with eval and pdf", "[bxdfs][metal_rough][reciprocity]") {
+  PCG32 rng(31, 41);
+  for (Float r : {0.05f, 0.3f, 1.f})
+    for (Float m : {0.f, 0.5f})
+      for (Float t : {0.f, 0.5f}) {
+        auto b = make_bxdf<S4>(material(r, m, t));
+        int transmissions = 0, reflections = 0, diffuse = 0;
+        for (int i = 0; i < 300; ++i) {
+          Vector3f x = sample_uniform_sphere({rng.next_float(), rng.next_float()});
+          Vector3f y = sample_uniform_sphere({rng.next_float(), rng.next_float()});
+          INFO("roughness " << r << " metallic " << m << " transmission " << t << " x " << x.x << " " << x.y << " "
+                            << x.z << " y " << y.x << " " << y.y << " " << y.z);
+          S4 fxy = b.eval(x, y, TransportMode::radiance), fyx = b.eval(y, x, TransportMode::radiance);
+          for (int c = 0; c < 4; ++c) CHECK(fxy[c] == Approx(fyx[c]).epsilon(1e-4).margin(1e-30));
+          CHECK(b.eval(x, y, TransportMode::importance) == fxy);
+          auto bs = b.sample(x, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
+          if (!bs) continue;
+          CHECK_FALSE(bs->is_specular());
+          CHECK(bs->eta == 1);
+          CHECK(bs->f == b.eval(x, bs->wi, TransportMode::radiance));
+          CHECK(bs->pdf == b.pdf(x, bs->wi, TransportMode::radiance));
+          if (bs->is_transmission()) {
+            ++transmissions;
+            CHECK(bs->wi.z * x.z < 0);
+            CHECK(bs->flags == BxDFFlags::glossy_transmission);
+          } else {
+            CHECK(bs->wi.z * x.z > 0);
+            if (bs->flags == BxDFFlags::diffuse_reflection)
+              ++diffuse;
+            else {
+              CHECK(bs->flags == BxDFFlags::glossy_reflection);
+              ++reflections;
+            }
+          }
+        }
+        CHECK(reflections > 0);
+        CHECK((diffuse > 0) == (m < 1));
+        CHECK((transmissions > 0) == (t > 0));
+      }
+}
+
+TEST_CASE("metal-rough takes the exact specular path at roughness 0 and 1e-4, none below the threshold is rough", "[bxdfs][metal_rough][smooth]") {
+  PCG32 rng(3, 3);
+  for (Float r : {0.f, 1e-4f, 0.001f, 0.01f}) {
+    auto b = make_bxdf<RGB>(material(r, 0.5f, 0.5f));
+    INFO("roughness " << r);
+    CHECK(b.is_smooth());
+    CHECK(b.flags() == (BxDFFlags::specular_reflection | BxDFFlags::diffuse_reflection |
+                        BxDFFlags::specular_transmission));
+    CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::has_specular(material(r, 0.5f, 0.5f)));
+    for (double theta : {0.0, 30.0, 60.0, 85.0}) {
+      Vector3f wo = direction_at(theta);
+      auto p = b.lobe_probabilities(wo.z);
+      // A reflection sample (uc in the first lobe), a diffuse one, a transmission.
+      auto refl = b.sample(wo, p.reflection / 2, {0.3f, 0.6f}, TransportMode::radiance);
+      REQUIRE(refl);
+      CHECK(refl->flags == BxDFFlags::specular_reflection);
+      CHECK(refl->wi == Vector3f(-wo.x, -wo.y, wo.z));
+      CHECK(refl->pdf == p.reflection);
+      RGB F = b.specular_fresnel(wo.z);
+      for (int c = 0; c < 3; ++c) CHECK(refl->f[c] * wo.z == Approx(F[c]).epsilon(1e-6));
+      auto tr = b.sample(wo, 1 - p.transmission / 2, {0.3f, 0.6f}, TransportMode::radiance);
+      REQUIRE(tr);
+      CHECK(tr->flags == BxDFFlags::specular_transmission);
+      CHECK(tr->wi == -wo);
+      CHECK(tr->eta == 1);
+      auto di = b.sample(wo, p.reflection + p.diffuse / 2, {0.3f, 0.6f}, TransportMode::radiance);
+      REQUIRE(di);
+      CHECK(di->flags == BxDFFlags::diffuse_reflection);
+      CHECK(di->pdf == Approx(p.diffuse * di->wi.z / pi_d));
+      // eval and pdf: the diffuse lobe only; 0 at the delta directions' opposite side.
+      CHECK(b.eval(wo, -wo, TransportMode::radiance).is_black());
+      CHECK(b.pdf(wo, -wo, TransportMode::radiance) == 0);
+    }
+  }
+  // alpha = roughness^2 = 2^-12 exactly: the first rough value.
+  auto rough = make_bxdf<RGB>(material(0x1p-6f, 0.5f, 0.5f));
+  CHECK_FALSE(rough.is_smooth());
+  CHECK(rough.flags() == (BxDFFlags::glossy_reflection | BxDFFlags::diffuse_reflection |
+                          BxDFFlags::glossy_transmission));
+  CHECK_FALSE(bxdf_traits<MetalRoughBxDF<RGB>>::has_specular(material(0x1p-6f, 0.5f, 0.5f)));
+  // A smooth pure-diffuse layer (specular 0, not metallic, opaque) has no delta lobe.
+  MetalRoughMaterial matte = material(0, 0, 0);
+  matte.specular = 0;
+  CHECK_FALSE(bxdf_traits<MetalRoughBxDF<RGB>>::has_specular(matte));
+  CHECK(make_bxdf<RGB>(matte).flags() == BxDFFlags::diffuse_reflection);
+  CHECK(make_bxdf<RGB>(material(0, 0, 0, RGB(0))).flags() == BxDFFlags::specular_reflection);
+}
+
+TEST_CASE("metal-rough is finite at grazing angles, roughness 0, 1e-4, the threshold and 1", "[bxdfs][metal_rough][finite]") {
+  PCG32 rng(8, 8);
+  for (Float r : {0.f, 1e-4f, 0x1p-6f, 0.001f, 0.05f, 1.f})
+    for (Float m : {0.f, 0.5f, 1.f})
+      for (Float t : {0.f, 1.f})
+        for (Float cz : {1e-8f, 1e-4f})
+          for (Float side : {1.f, -1.f}) {
+            MetalRoughMaterial mat = material(r, m, t);
+            auto b = make_bxdf<RGB>(mat);
+            auto bs = make_bxdf<S4>(mat);
+            Vector3f wo(std::sqrt(1 - cz * cz) * 0.6f, std::sqrt(1 - cz * cz) * 0.8f, side * cz);
+            INFO("roughness " << r << " metallic " << m << " transmission " << t << " cos " << cz << " side " << side);
+            for (const Vector3f& wi : {Vector3f(-wo.x, -wo.y, wo.z), -wo, Vector3f(wo.x, wo.y, -wo.z),
+                                       Vector3f(0, 0, side), Vector3f(0, 0, -side), Vector3f(0.6f, -0.8f, 1e-8f),
+                                       Vector3f(-0.8f, 0.6f, -1e-4f)}) {
+              check_finite<MetalRoughBxDF<RGB>, RGB>(b, wo, wi, rng);
+              check_finite<MetalRoughBxDF<S4>, S4>(bs, wo, wi, rng);
+            }
+            auto a = albedo_all(b, wo, 2000, rng);
+            for (int c = 0; c < 3; ++c) {
+              CHECK(std::isfinite(a[size_t(c)].mean));
+              CHECK(a[size_t(c)].mean <= 1 + 4 * a[size_t(c)].sigma + 1e-5);
+            }
+          }
+}
+
+TEST_CASE("metal-rough material: clamps with one warning per material, throws where no clamp makes sense, traits", "[bxdfs][metal_rough][validate]") {
+  using T = bxdf_traits<MetalRoughBxDF<RGB>>;
+  MetalRoughMaterial ok = material(0.4f, 0.2f, 0.1f);
+  {
+    CerrCapture cap;
+    CHECK_NOTHROW(T::validate(ok, "scene: material 0"));
+    MetalRoughMaterial zero_ior = ok;
+    zero_ior.ior = 0;  // KHR_materials_ior: F0 = 1
+    CHECK_NOTHROW(T::validate(zero_ior, "scene: material 0"));
+    CHECK(cap.text.str().empty());
+  }
+  {
+    CerrCapture cap;
+    MetalRoughMaterial bad = ok;
+    bad.name = "overdriven";
+    bad.base_color = RGB(1.2f, 0.5f, -0.1f);
+    bad.metallic = 1.5f;
+    bad.roughness = -0.2f;
+    bad.specular = 2;
+    bad.transmission = 1.1f;
+    bad.specular_color = RGB(-1, 2, 1);  // > 1 is allowed (the product with F0 is clamped), < 0 is not
+    CHECK_NOTHROW(T::validate(bad, "scene: material 4"));
+    std::string msg = cap.text.str();
+    CHECK(cap.lines() == 1);
+    CHECK_THAT(msg, Catch::Contains("scene: material 4") && Catch::Contains("'overdriven'") &&
+                        Catch::Contains("metallic 1.5 -> 1") && Catch::Contains("roughness -0.2 -> 0") &&
+                        Catch::Contains("base_color.r 1.2 -> 1") && Catch::Contains("base_color.b -0.1 -> 0") &&
+                        Catch::Contains("specular 2 -> 1") && Catch::Contains("transmission 1.1 -> 1") &&
+                        Catch::Contains("specular_color.r -1 -> 0"));
+    CHECK_THAT(msg, !Catch::Contains("specular_color.g"));
+    // make() renders the clamped values.
+    auto b = make_bxdf<RGB>(bad);
+    CHECK(b.metallic() == 1);
+    CHECK(b.specular() == 1);
+    CHECK(b.distribution().effectively_smooth());
+    CHECK(b.base_color() == RGB(1, 0.5f, 0));
+    CHECK(b.dielectric_f0().r == 0);
+    CHECK(b.dielectric_f0().g == Approx(0.08));
+    CHECK(b.dielectric_f0().b == Approx(0.04));
+  }
+  auto throws = [&](MetalRoughMaterial m, const char* what) {
+    m.name = "broken";
+    CHECK_THROWS_WITH(T::validate(m, "scene: material 7"),
+                      Catch::StartsWith("scene: material 7: ") && Catch::Contains("'broken'") && Catch::Contains(what));
+  };
+  MetalRoughMaterial m = ok;
+  m.roughness = std::nanf("");
+  throws(m, "roughness");
+  m = ok;
+  m.base_color.g = infinity;
+  throws(m, "base_color");
+  m = ok;
+  m.specular_color.b = std::nanf("");
+  throws(m, "specular_color");
+  m = ok;
+  m.metallic = -infinity;
+  throws(m, "metallic");
+  for (Float ior : {0.5f, -1.5f, std::nanf(""), infinity}) {
+    m = ok;
+    m.ior = ior;
+    throws(m, "ior");
+  }
+  CHECK_FALSE(T::needs_spectral(ok));
+  CHECK(T::name == "metal_rough");
+  CHECK(MetalRoughMaterial::f0_from_ior(1.5f) == Approx(0.04));
+  CHECK(MetalRoughMaterial::f0_from_ior(0) == 1);
+  // glTF's defaults: white, metallic 1, roughness 1.
+  MetalRoughMaterial d;
+  CHECK(d.base_color == RGB(1));
+  CHECK(d.metallic == 1);
+  CHECK(d.roughness == 1);
+  CHECK(d.ior == 1.5f);
+  CHECK(d.transmission == 0);
+  // Through a scene: one warning per clamped material when the scene is built.
+  using Set = default_bxdf_set<RGB>::with<MetalRoughBxDF<RGB>>;
+  Scene<RGB, Set> scene;
+  MetalRoughMaterial a = ok, c = ok;
+  a.metallic = 2;
+  a.roughness = 3;
+  c.base_color = RGB(2);
+  uint32_t ia = scene.add_material(a), ib = scene.add_material(ok), ic = scene.add_material(c);
+  scene.add_sphere(Sphere{{0, 0, 0}, 1}, ia);
+  scene.add_sphere(Sphere{{3, 0, 0}, 1}, ib);
+  scene.add_sphere(Sphere{{6, 0, 0}, 1}, ic);
+  {
+    CerrCapture cap;
+    scene.build();
+    CHECK(cap.lines() == 2);
+    CHECK_THAT(cap.text.str(), Catch::Contains("scene: material 0") && Catch::Contains("scene: material 2"));
+  }
+  CHECK_FALSE(scene.needs_spectral());
+  CHECK_FALSE(scene.has_specular());
+  auto si = scene.intersect(Ray{{3, 0, 5}, {0, 0, -1}});
+  REQUIRE(si);
+  CHECK(scene.bsdf(*si, RGBWavelengths{}).bxdf().index() == Set::size - 1);
+}
