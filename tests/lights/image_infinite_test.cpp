@@ -4,6 +4,7 @@
 // integral of Le, an MIS estimate with the compensated density, power, and bad
 // input.
 #include <catch2/catch.hpp>
+#include "support/light_checks.hpp"
 #include <prism/prism.hpp>
 #include <prism/lights/image_infinite.hpp>
 #include "support/chi2.hpp"
@@ -44,19 +45,9 @@ EnvironmentImage sky_map(int w, int h, float sun_value, int sun_x, int sun_y, in
 
 template <class S>
 wavelengths_t<S> test_lambda() {
-  if constexpr (is_spectral_v<S>)
-    return spectrum_traits<S>::sample_wavelengths(0.37f);
-  else
-    return {};
+  return prism_test::test_lambda<S>(0.37f);
 }
-
-template <class S>
-double max_rel_diff(const S& a, const S& b) {
-  double m = 0;
-  for (int i = 0; i < S::size; ++i)
-    m = std::max(m, std::abs(double(a[i]) - double(b[i])) / std::max(1e-30, std::abs(double(b[i]))));
-  return m;
-}
+using prism_test::max_rel_diff;
 
 // Integral over the sphere of the map's RGB (exact per texel solid angle).
 RGB integral_of(const EnvironmentImage& img) {

@@ -3,6 +3,7 @@
 // sun's cone sampling against pdf_li (wide and Sun-sized cones), the sun's
 // irradiance, and bad parameters.
 #include <catch2/catch.hpp>
+#include "support/light_checks.hpp"
 #include <prism/prism.hpp>
 #include <prism/lights/punctual.hpp>
 #include "support/chi2.hpp"
@@ -16,19 +17,9 @@ const double alpha = prism_test::sidak_alpha(1e-3, 3);
 
 template <class S>
 wavelengths_t<S> test_lambda() {
-  if constexpr (is_spectral_v<S>)
-    return spectrum_traits<S>::sample_wavelengths(0.61f);
-  else
-    return {};
+  return prism_test::test_lambda<S>(0.61f);
 }
-
-template <class S>
-double max_rel_diff(const S& a, const S& b) {
-  double m = 0;
-  for (int i = 0; i < S::size; ++i)
-    m = std::max(m, std::abs(double(a[i]) - double(b[i])) / std::max(1e-30, std::abs(double(b[i]))));
-  return m;
-}
+using prism_test::max_rel_diff;
 
 // The glTF reference falloff, in double.
 double gltf_falloff(double cos_theta, double inner, double outer) {

@@ -122,6 +122,9 @@ class Scene {
       }
     }
     m_area_light_count = m_lights.size();
+    m_has_specular = false;
+    for (const auto& m : m_materials)
+      if (std::visit([](const auto& p) { return material_has_specular(p); }, m)) m_has_specular = true;
     Bounds3f b = m_accel.bounds();
     Float radius = b.empty() ? 1 : length(b.diagonal()) / 2;
     for (auto l : m_extra_lights) {
@@ -188,11 +191,8 @@ class Scene {
 
   // True if some material may scatter specularly (a delta lobe), from its
   // bxdf_traits: has_specular(material) when provided, else the static flags.
-  bool has_specular() const {
-    for (const auto& m : m_materials)
-      if (std::visit([](const auto& p) { return material_has_specular(p); }, m)) return true;
-    return false;
-  }
+  // Computed by build(): the integrators ask per sample.
+  bool has_specular() const { return m_has_specular; }
   // True if the scene has area lights (emitting triangles or spheres); valid after build().
   bool has_area_lights() const { return m_area_light_count > 0; }
 
@@ -265,6 +265,7 @@ class Scene {
   std::vector<light_type> m_extra_lights;  // as added; copied into m_lights by build()
   std::vector<light_type> m_lights;        // area lights first, then the others
   size_t m_area_light_count = 0;
+  bool m_has_specular = false;
   std::vector<uint32_t> m_infinite_indices;
   LightSelection m_selection = LightSelection::power;
   PowerLightSampler m_light_sampler, m_area_light_sampler;
