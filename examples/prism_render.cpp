@@ -1,5 +1,6 @@
-// prism-render: renders the built-in default scene (a Cornell box) to PNG, EXR
-// and/or PFM. Exit codes: 0 success, 2 bad options or unwritable output.
+// prism-render: renders a glTF 2.0 scene (.gltf or .glb), or the built-in
+// default scene (a Cornell box) when none is given, to PNG, EXR and/or PFM.
+// Exit codes: 0 success, 2 bad options, a bad scene or unwritable output.
 #include <unistd.h>
 #include <atomic>
 #include <chrono>
@@ -10,6 +11,7 @@
 #include <vector>
 #include <CLI/CLI.hpp>
 #include <prism/prism.hpp>
+#include <prism/io/gltf.hpp>
 #include <prism/io/image_io.hpp>
 
 namespace {
@@ -76,29 +78,17 @@ struct Job {
   float exposure_ev = 0;
   std::string tone_map = "clamp";
   float aperture = 0, focus_distance = 3.75f;
+  int camera = -1;
+  double time = 0;
+  std::string env;
+  float env_scale = 1;
 };
 
-template <class S>
-int run(const Job& job, const char* model) {
+// Renders scene through camera and writes the outputs.
+template <class SceneT, class Camera>
+int render_and_write(const Job& job, const char* model, const SceneT& scene, const Camera& camera) {
   using namespace prism;
-  Scene<S> scene;
-  try {
-    build_cornell_box(scene);
-    scene.build();
-  } catch (const Error& e) {
-    return fail(e.what());
-  }
-  PerspectiveCamera camera;
-  try {
-    DefaultSceneDesc desc;
-    desc.lens_radius = job.aperture;
-    desc.focus_distance = job.focus_distance;
-    camera = default_camera(job.width, job.height, desc);
-  } catch (const Error& e) {
-    return fail(e.what());
-  }
   Film film(job.width, job.height);
-
   std::signal(SIGINT, [](int) { g_cancel = true; });
   ProgressBar bar(!job.quiet && ::isatty(STDERR_FILENO));
   RenderOptions opt;
@@ -116,7 +106,7 @@ int run(const Job& job, const char* model) {
     return job.integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt, pixel_filter)
                                     : render(scene, camera, PathIntegrator(popt), film, opt, pixel_filter);
   };
-  RenderStats st = job.filter == "gaussian" ? go(GaussianFilter{}) : go(BoxFilter{});
+  RenderStats st = go(make_filter(job.filter));
   Image img = to_image(film);
   PngOptions png{std::exp2(job.exposure_ev), job.tone_map == "neutral" ? ToneMap::neutral : ToneMap::clamp};
   for (const auto& o : job.outputs) {
@@ -137,14 +127,108 @@ int run(const Job& job, const char* model) {
   return st.cancelled ? 130 : 0;
 }
 
+template <class S>
+int run_default(const Job& job, const char* model) {
+  using namespace prism;
+  Scene<S> scene;
+  PerspectiveCamera camera;
+  try {
+    build_cornell_box(scene);
+    scene.build();
+    DefaultSceneDesc desc;
+    desc.lens_radius = job.aperture;
+    desc.focus_distance = job.focus_distance;
+    camera = default_camera(job.width, job.height, desc);
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
+  return render_and_write(job, model, scene, camera);
+}
+
+// A glTF scene: its camera (--camera N, else the first, else one framing the
+// scene's bounds), its lights, --env, and a white environment when it has no
+// punctual light.
+template <class S>
+int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
+  using namespace prism;
+  try {
+    if (!job.env.empty()) {
+      g.scene.add_light(ImageInfiniteLight<S>(read_environment(job.env), job.env_scale));
+    } else if (g.punctual_lights == 0) {
+      // Emissive surfaces rarely light a whole model: they do not count.
+      if (!job.quiet)
+        std::fprintf(stderr, "prism-render: the scene has no punctual light: adding a white environment\n");
+      g.scene.add_light(UniformInfiniteLight<S>(RGB(1)));
+    }
+    g.scene.build();
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
+  if (job.camera >= int(g.cameras.size()))
+    return fail("--camera " + std::to_string(job.camera) + ": the scene has " + std::to_string(g.cameras.size()) +
+                " cameras");
+  try {
+    if (job.camera >= 0 || !g.cameras.empty()) {
+      const GltfCamera& c = g.cameras[size_t(std::max(job.camera, 0))];
+      if (c.orthographic)
+        return render_and_write(job, model, g.scene,
+                                OrthographicCamera(c.camera_to_world, 2 * c.ymag, job.width, job.height));
+      return render_and_write(job, model, g.scene,
+                              PerspectiveCamera(c.camera_to_world, c.yfov, job.width, job.height, job.aperture,
+                                                job.focus_distance));
+    }
+    // No camera: look at the bounds' centre from +z (glTF's front), framing
+    // the bounding sphere with a 40 degree vertical field of view.
+    Bounds3f b = g.bounds.empty() ? Bounds3f(Point3f(0, 0, 0)) : g.bounds;
+    Point3f c = b.min + (b.max - b.min) * Float(0.5);
+    Float r = std::max(length(b.max - b.min) / 2, Float(1e-3));
+    Float fov = Float(40) * pi / 180;
+    Float aspect = Float(job.width) / Float(job.height);
+    Float half = std::min(fov / 2, std::atan(std::tan(fov / 2) * aspect));
+    Float dist = r / std::sin(half) * Float(1.05);
+    Transform to_world = look_at_camera_to_world(c + Vector3f(0, 0, dist), c, Vector3f(0, 1, 0));
+    return render_and_write(job, model, g.scene,
+                            PerspectiveCamera(to_world, fov, job.width, job.height, job.aperture, job.focus_distance));
+  } catch (const Error& e) {
+    return fail(e.what());
+  }
+}
+
+template <class S>
+int run_gltf_file(const Job& job, const char* model, const std::string& path) {
+  prism::GltfOptions gopt;
+  gopt.time = job.time;
+  try {
+    auto g = prism::load_gltf<S>(path, gopt);
+    if (!job.quiet)
+      for (const auto& w : g.warnings) std::fprintf(stderr, "prism-render: warning: %s\n", w.c_str());
+    return run_gltf<S>(job, model, g);
+  } catch (const prism::Error& e) {
+    return fail(e.what());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"prism-render: physically based path tracing with prism"};
   std::string scene_path;
-  Job job{512, 512, 64, 0, 64, 0, {}, "path", "box", false};
+  Job job;
+  job.width = job.height = 512;
+  job.spp = 64;
+  job.threads = 0;
+  job.max_depth = 64;
+  job.seed = 0;
+  job.integrator = "path";
+  job.filter = "box";
+  job.quiet = false;
   bool spectral = false, rgb = false;
-  app.add_option("scene", scene_path, "Scene file (glTF support arrives with the glTF module); default: built-in Cornell box");
+  app.add_option("scene", scene_path, "glTF 2.0 scene (.gltf or .glb); default: the built-in Cornell box");
+  app.add_option("--camera", job.camera, "glTF camera index (default: the scene's first, else one framing the scene)")
+      ->check(CLI::Range(0, 1 << 30));
+  app.add_option("--time", job.time, "glTF animation time in seconds");
+  app.add_option("--env", job.env, "Equirectangular environment map (.hdr, .exr or .pfm) lighting a glTF scene");
+  app.add_option("--env-scale", job.env_scale, "Multiplier of the environment map")->check(CLI::Range(0.f, 1e30f));
   app.add_option("--width", job.width, "Image width in pixels")->check(CLI::Range(1, 65536));
   app.add_option("--height", job.height, "Image height in pixels")->check(CLI::Range(1, 65536));
   app.add_option("--spp", job.spp, "Samples per pixel")->check(CLI::Range(1, 1 << 24));
@@ -154,8 +238,10 @@ int main(int argc, char** argv) {
   app.add_option("--out,-o", job.outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
   app.add_option("--integrator", job.integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
       ->check(CLI::IsMember({"path", "bsdf"}));
-  app.add_option("--filter", job.filter, "Pixel filter: box (1 pixel) or gaussian (radius 1.5, sigma 0.5)")
-      ->check(CLI::IsMember({"box", "gaussian"}));
+  app.add_option("--filter", job.filter,
+                 "Pixel filter: box (1 pixel), gaussian (radius 1.5, sigma 0.5), triangle (radius 1) or mitchell "
+                 "(radius 2, B = C = 1/3)")
+      ->check(CLI::IsMember({"box", "gaussian", "triangle", "mitchell"}));
   auto* spectral_flag = app.add_flag("--spectral", spectral,
                                      "Spectral rendering (4 sampled wavelengths, XYZ film); default when the scene "
                                      "uses dispersion or measured spectra");
@@ -181,12 +267,16 @@ int main(int argc, char** argv) {
       if (c == '\n') c = ' ';
     return fail(msg);
   }
-  if (!scene_path.empty())
-    return fail("scene '" + scene_path + "': loading scene files is not supported yet (glTF loading is issue #6)");
   if (job.outputs.empty()) job.outputs.push_back("default.png");
   for (const auto& o : job.outputs)
     if (auto err = check_output(o); !err.empty()) return fail(err);
 
+  if (!scene_path.empty()) {
+    // glTF materials render exactly in RGB: spectral only when asked.
+    return spectral ? run_gltf_file<prism::Spectral>(job, "spectral", scene_path)
+                    : run_gltf_file<prism::RGB>(job, "rgb", scene_path);
+  }
+  if (!job.env.empty()) return fail("--env needs a glTF scene");
   // The colour model: as asked, else the smallest that renders the scene
   // exactly (RGB unless a material needs spectra; docs/spectral.md).
   if (!spectral && !rgb) {
@@ -194,5 +284,5 @@ int main(int argc, char** argv) {
     build_cornell_box(probe);
     spectral = probe.needs_spectral();
   }
-  return spectral ? run<prism::Spectral>(job, "spectral") : run<prism::RGB>(job, "rgb");
+  return spectral ? run_default<prism::Spectral>(job, "spectral") : run_default<prism::RGB>(job, "rgb");
 }

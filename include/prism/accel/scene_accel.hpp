@@ -254,6 +254,10 @@ class SceneAccel {
       si.n = normalize(t(si.n));
       si.ns = normalize(t(si.ns));
       si.dpdu = t(si.dpdu);
+      si.dpdv = t(si.dpdv);
+      si.tangent = t(si.tangent);
+      // A mirroring transform flips the bitangent's handedness.
+      if (t.swaps_handedness()) si.tangent_w = -si.tangent_w;
     }
     return si;
   }

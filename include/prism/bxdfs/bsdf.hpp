@@ -31,9 +31,14 @@ class BSDF {
   // selects the set's I-th BxDF, built by bxdf_traits<BxDF_I>::make. lambda is
   // passed on as a non-const lvalue when the caller's is one: a dispersive BxDF
   // terminates the secondary wavelengths through it.
+  // The shading frame is si.shading_frame(), unless the BxDF's traits
+  // provide `static Frame shading_frame(const Material&, const
+  // SurfaceInteraction&)` (normal mapping).
   template <class W>
   static BSDF from_material(const typename Set::material_variant& m, const SurfaceInteraction& si, W&& lambda) {
-    return BSDF(si.shading_frame(), make_bxdf(m, si, lambda, std::make_index_sequence<Set::size>{}));
+    BSDF out;
+    build(out, m, si, lambda, std::make_index_sequence<Set::size>{});
+    return out;
   }
 
   BxDFFlags flags() const {
@@ -66,15 +71,18 @@ class BSDF {
 
  private:
   template <class W, size_t... I>
-  static bxdf_variant make_bxdf(const typename Set::material_variant& m, const SurfaceInteraction& si, W& lambda,
-                                std::index_sequence<I...>) {
-    bxdf_variant out;
-    ((m.index() == I ? (out.template emplace<I>(bxdf_traits<typename Set::template bxdf<I>>::make(
-                            std::get<I>(m), si, lambda)),
-                        true)
-                     : false) ||
-     ...);
-    return out;
+  static void build(BSDF& out, const typename Set::material_variant& m, const SurfaceInteraction& si, W& lambda,
+                    std::index_sequence<I...>) {
+    ((m.index() == I ? (build_one<I>(out, std::get<I>(m), si, lambda), true) : false) || ...);
+  }
+  template <size_t I, class M, class W>
+  static void build_one(BSDF& out, const M& mat, const SurfaceInteraction& si, W& lambda) {
+    using T = bxdf_traits<typename Set::template bxdf<I>>;
+    if constexpr (requires { T::shading_frame(mat, si); })
+      out.m_frame = T::shading_frame(mat, si);
+    else
+      out.m_frame = si.shading_frame();
+    out.m_bxdf.template emplace<I>(T::make(mat, si, lambda));
   }
 
   Frame m_frame;

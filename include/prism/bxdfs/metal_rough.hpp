@@ -64,6 +64,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -73,6 +74,8 @@
 #include "prism/error.hpp"
 #include "prism/geometry/interaction.hpp"
 #include "prism/sampling/warps.hpp"
+#include "prism/textures/normal_map.hpp"
+#include "prism/textures/texture.hpp"
 #include "prism/spectra/rgb.hpp"
 #include "prism/spectra/traits.hpp"
 
@@ -337,6 +340,24 @@ class MetalRoughBxDF {
 // specular_color >= 0 are clamped into their domain, with one warning per
 // material on std::cerr; NaN or infinite values, and an ior below 1 other
 // than exactly 0, throw prism::Error (no value is a sensible stand-in).
+// The glTF textures of a metallic-roughness material, each optional; held by
+// shared pointer so that materials stay cheap to copy and images are shared.
+// Each texture's factor multiplies the material's own value.
+struct MetalRoughTextures {
+  std::optional<ImageTexture> base_color;          // sRGB rgb x base_color, alpha x alpha
+  std::optional<ImageTexture> metallic_roughness;  // linear: B x metallic, G x roughness
+  std::optional<ImageTexture> normal;              // tangent-space normal map
+  Float normal_scale = 1;                          // normalTexture.scale
+  std::optional<ImageTexture> transmission;        // KHR_materials_transmission: R x transmission
+  std::optional<ImageTexture> specular;            // KHR_materials_specular: A x specular
+  std::optional<ImageTexture> specular_color;      // KHR_materials_specular: sRGB rgb x specular_color
+};
+
+// glTF alphaMode: opaque ignores alpha; mask keeps a surface where alpha >=
+// the cutoff and removes it elsewhere; blend keeps it with probability alpha
+// (stochastic opacity: a path tracer's unbiased reading of blending).
+enum class AlphaMode : uint8_t { opaque, mask, blend };
+
 struct MetalRoughMaterial {
   RGB base_color{1};
   Float metallic = 1, roughness = 1;
@@ -344,6 +365,12 @@ struct MetalRoughMaterial {
   Float specular = 1;             // KHR_materials_specular: specularFactor
   RGB specular_color{1};          // KHR_materials_specular: specularColorFactor (may exceed 1)
   Float transmission = 0;         // KHR_materials_transmission: transmissionFactor (thin-walled)
+  Float alpha = 1;                // baseColorFactor's alpha
+  AlphaMode alpha_mode = AlphaMode::opaque;
+  Float alpha_cutoff = 0.5f;
+  // Vertex colours (glTF COLOR_0) multiply the base colour and alpha; the
+  // hit's colour is white where a mesh has none.
+  std::shared_ptr<const MetalRoughTextures> textures;
   std::string name = "metal_rough";
 
   // The dielectric F0 from ior alone: ((ior - 1) / (ior + 1))^2; 1 for ior = 0.
@@ -362,6 +389,39 @@ struct MetalRoughParams {
   Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
+inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
+// The material's values at a hit: factors times textures times vertex colour.
+inline MetalRoughMaterial textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+  MetalRoughMaterial v;
+  v.base_color = m.base_color * si.color;
+  v.metallic = m.metallic;
+  v.roughness = m.roughness;
+  v.ior = m.ior;
+  v.specular = m.specular;
+  v.specular_color = m.specular_color;
+  v.transmission = m.transmission;
+  if (const MetalRoughTextures* t = m.textures.get()) {
+    if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
+    if (t->metallic_roughness) {
+      RGB mr = t->metallic_roughness->evaluate(texcoord(*t->metallic_roughness, si)).rgb;
+      v.metallic *= mr.b;
+      v.roughness *= mr.g;
+    }
+    if (t->transmission) v.transmission *= t->transmission->evaluate(texcoord(*t->transmission, si)).rgb.r;
+    if (t->specular) v.specular *= t->specular->evaluate(texcoord(*t->specular, si)).a;
+    if (t->specular_color)
+      v.specular_color = v.specular_color * t->specular_color->evaluate(texcoord(*t->specular_color, si)).rgb;
+  }
+  return v;
+}
+// Coverage in [0, 1] at a hit (alphaMode): 1 when opaque, 0 or 1 for mask.
+inline Float metal_rough_opacity(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+  if (m.alpha_mode == AlphaMode::opaque) return 1;
+  Float a = m.alpha * si.alpha;
+  if (m.textures && m.textures->base_color) a *= m.textures->base_color->evaluate(texcoord(*m.textures->base_color, si)).a;
+  if (m.alpha_mode == AlphaMode::mask) return a >= m.alpha_cutoff ? Float(1) : Float(0);
+  return std::clamp(a, Float(0), Float(1));
+}
 inline MetalRoughParams clamp_metal_rough(const MetalRoughMaterial& m, std::string* clamped = nullptr) {
   MetalRoughParams p;
   auto note = [&](const char* what, Float from, Float to) {
@@ -408,8 +468,9 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   // uplift at the path's wavelengths if larger (a smooth spectrum may peak
   // above its RGB channels): energy is conserved at every wavelength.
   template <class W>
-  static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction&, const W& lambda) {
-    detail::MetalRoughParams p = detail::clamp_metal_rough(m);
+  static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction& si, const W& lambda) {
+    detail::MetalRoughParams p = detail::clamp_metal_rough(
+        (m.textures || si.color != RGB(1)) ? detail::textured(m, si) : m);
     S base = spectrum_traits<S>::albedo(p.base, lambda);
     S f0 = spectrum_traits<S>::albedo(p.dielectric_f0, lambda);
     Float f0_max = std::min(std::max(p.dielectric_f0.max_component(), f0.max_component()), Float(1));
@@ -451,9 +512,34 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
       std::cerr << "prism: warning: " << where << ": material '" << m.name << "': clamped " << clamped << "\n";
   }
   static bool needs_spectral(const MetalRoughMaterial&) { return false; }
+
+  // Normal mapping: the shading normal from normalTexture, in the tangent
+  // frame of the mesh's TANGENT (with its handedness) or, without one, of the
+  // uv derivatives (bitangent towards decreasing v: glTF's +Y is up in the
+  // image, and v runs down).
+  static Frame shading_frame(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+    if (!m.textures || !m.textures->normal) return si.shading_frame();
+    const ImageTexture& nt = *m.textures->normal;
+    RGB texel = nt.evaluate(detail::texcoord(nt, si)).rgb;
+    bool has_tangent = length_squared(si.tangent) > 0;
+    Vector3f t = has_tangent ? si.tangent : si.dpdu;
+    Vector3f b = has_tangent ? cross(Vector3f(si.ns), si.tangent) * si.tangent_w : -si.dpdv;
+    SurfaceInteraction mapped = si;
+    mapped.ns = apply_normal_map(texel, m.textures->normal_scale, t, b, si.ns);
+    mapped.dpdu = t;
+    return mapped.shading_frame();
+  }
+  // alphaMode coverage at a hit; Scene::intersect passes through surfaces
+  // that are not there (see may_be_transparent).
+  static Float opacity(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+    return detail::metal_rough_opacity(m, si);
+  }
+  static bool may_be_transparent(const MetalRoughMaterial& m) { return m.alpha_mode != AlphaMode::opaque; }
   // Delta lobes: a smooth surface (roughness^2 below the threshold) that
   // reflects or transmits anything specularly.
   static bool has_specular(const MetalRoughMaterial& m) {
+    // A roughness texture may make texels smooth: conservatively yes.
+    if (m.textures && m.textures->metallic_roughness && m.roughness > 0) return true;
     detail::MetalRoughParams p = detail::clamp_metal_rough(m);
     if (!TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)).effectively_smooth()) return false;
     return p.metallic > 0 || p.specular > 0 || p.transmission > 0;

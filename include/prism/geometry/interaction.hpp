@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include "prism/geometry/ray.hpp"
+#include "prism/spectra/rgb.hpp"
 
 namespace prism {
 
@@ -13,7 +14,13 @@ struct SurfaceInteraction {
   Normal3f n;         // unit geometric normal (oriented by winding or outwards)
   Normal3f ns;        // unit shading normal, in the hemisphere of n
   Vector3f dpdu;      // surface tangent, used to orient the shading frame
+  Vector3f dpdv;      // the other uv derivative (normal mapping without tangents)
   Point2f uv;
+  Point2f uv1;        // second texture coordinate set (glTF TEXCOORD_1), (0, 0) if absent
+  Vector3f tangent;   // a mesh's own tangent (glTF TANGENT), zero if absent
+  Float tangent_w = 1;  // its bitangent handedness
+  RGB color{1};       // vertex colour (glTF COLOR_0), white if absent
+  Float alpha = 1;    // vertex alpha
   Vector3f wo;        // unit direction back along the incoming ray
   Float time = 0;
   int32_t material = -1;    // index into the scene's materials

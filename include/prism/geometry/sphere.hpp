@@ -89,6 +89,9 @@ inline void sphere_interaction(const Sphere& s, const Ray& ray, const SphereHit&
   Float cos_theta = std::clamp(local.z / s.radius, Float(-1), Float(1));
   si->uv = {phi * inv_2pi, std::acos(cos_theta) * inv_pi};
   si->dpdu = Vector3f{-local.y, local.x, 0} * (2 * pi);
+  // dp/dv for v = theta / pi: pi * (cos(theta) cos(phi), cos(theta) sin(phi), -sin(theta)) * r.
+  Float sin_theta = safe_sqrt(1 - cos_theta * cos_theta);
+  si->dpdv = Vector3f{cos_theta * std::cos(phi), cos_theta * std::sin(phi), -sin_theta} * (pi * s.radius);
 }
 
 }  // namespace prism

@@ -5,6 +5,7 @@
 // its own conservative error bound (pbrt-v4 book, section 6.8.4), and the hit
 // point carries the error bound gamma(7) * sum |b_i p_i| (section 6.8.5).
 #pragma once
+#include <array>
 #include <optional>
 #include <vector>
 #include "prism/geometry/interaction.hpp"
@@ -15,7 +16,12 @@ struct TriangleMesh {
   std::vector<Point3f> positions;
   std::vector<uint32_t> indices;  // 3 per triangle
   std::vector<Normal3f> normals;  // optional, per vertex
-  std::vector<Point2f> uvs;       // optional, per vertex
+  std::vector<Point2f> uvs;       // optional, per vertex (glTF TEXCOORD_0)
+  std::vector<Point2f> uvs1;      // optional, per vertex (glTF TEXCOORD_1)
+  // optional, per vertex: tangent xyz and the bitangent's handedness w = +-1
+  // (glTF TANGENT: bitangent = w cross(normal, tangent)).
+  std::vector<std::array<Float, 4>> tangents;
+  std::vector<std::array<Float, 4>> colors;  // optional, per vertex linear RGBA (glTF COLOR_0)
 
   size_t triangle_count() const { return indices.size() / 3; }
 };
@@ -119,13 +125,29 @@ inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const T
     uv2 = mesh.uvs[i2];
   }
   si->uv = uv0 * h.b0 + uv1 * h.b1 + uv2 * h.b2;
-  // dpdu from the uv parameterisation; fall back to an edge when degenerate.
+  // dpdu, dpdv from the uv parameterisation; fall back to edges when degenerate.
   Float du02 = uv0.x - uv2.x, du12 = uv1.x - uv2.x, dv02 = uv0.y - uv2.y, dv12 = uv1.y - uv2.y;
   Float det = difference_of_products(du02, dv12, dv02, du12);
   Vector3f dp02 = p0 - p2, dp12 = p1 - p2;
-  Vector3f dpdu = std::abs(det) > 1e-20f ? (dp02 * dv12 - dp12 * dv02) / det : e1;
+  bool uv_ok = std::abs(det) > 1e-20f;
+  Vector3f dpdu = uv_ok ? (dp02 * dv12 - dp12 * dv02) / det : e1;
+  Vector3f dpdv = uv_ok ? (dp12 * du02 - dp02 * du12) / det : e2;
   if (!(length_squared(dpdu) > 0) || dpdu.has_nan()) dpdu = e1;
+  if (!(length_squared(dpdv) > 0) || dpdv.has_nan()) dpdv = e2;
   si->dpdu = dpdu;
+  si->dpdv = dpdv;
+  if (!mesh.uvs1.empty()) si->uv1 = mesh.uvs1[i0] * h.b0 + mesh.uvs1[i1] * h.b1 + mesh.uvs1[i2] * h.b2;
+  if (!mesh.tangents.empty()) {
+    const auto &t0 = mesh.tangents[i0], &t1 = mesh.tangents[i1], &t2 = mesh.tangents[i2];
+    si->tangent = Vector3f(t0[0], t0[1], t0[2]) * h.b0 + Vector3f(t1[0], t1[1], t1[2]) * h.b1 +
+                  Vector3f(t2[0], t2[1], t2[2]) * h.b2;
+    si->tangent_w = t0[3] < 0 ? Float(-1) : Float(1);
+  }
+  if (!mesh.colors.empty()) {
+    const auto &c0 = mesh.colors[i0], &c1 = mesh.colors[i1], &c2 = mesh.colors[i2];
+    for (int k = 0; k < 3; ++k) si->color[k] = c0[size_t(k)] * h.b0 + c1[size_t(k)] * h.b1 + c2[size_t(k)] * h.b2;
+    si->alpha = c0[3] * h.b0 + c1[3] * h.b1 + c2[3] * h.b2;
+  }
 
   si->ns = ng;
   if (!mesh.normals.empty()) {

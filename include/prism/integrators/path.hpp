@@ -47,7 +47,9 @@ typename Scene::spectrum_type emitted(const Scene& scene, const SurfaceInteracti
   if (si.area_light < 0) return S{};
   return std::visit(
       [&](const auto& l) -> S {
-        if constexpr (requires { l.L(si.n, si.wo, lambda); })
+        if constexpr (requires { l.L(si, lambda); })
+          return l.L(si, lambda);
+        else if constexpr (requires { l.L(si.n, si.wo, lambda); })
           return l.L(si.n, si.wo, lambda);
         else
           return S{};

@@ -3,16 +3,28 @@
 // [0, 1], the sRGB transfer function). EXR: linear half or float RGB through
 // tinyexr. PFM: linear float RGB, bottom-to-top as the format defines.
 // Non-finite values are written as 0: an image prism writes never holds NaN/Inf.
+// Environment maps (read_environment): Radiance RGBE .hdr through stb_image,
+// .exr through tinyexr, .pfm.
 #pragma once
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <iterator>
+#include <limits>
 #include <string>
 #include <vector>
+#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 #include <tinyexr.h>
 #include "prism/error.hpp"
 #include "prism/film/film.hpp"
+#include "prism/lights/image_infinite.hpp"
 
 namespace prism {
 
@@ -155,6 +167,167 @@ inline void write_image(const std::string& path, const Image& img, const PngOpti
   if (ends_with(".exr")) return write_exr(path, img);
   if (ends_with(".pfm")) return write_pfm(path, img);
   throw Error(path + ": unknown image format (use .png, .exr or .pfm)");
+}
+
+namespace detail {
+// The lower-case extension of path, with its dot ("" if none).
+inline std::string env_file_extension(const std::string& path) {
+  size_t dot = path.find_last_of('.'), slash = path.find_last_of("/\\");
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string e = path.substr(dot);
+  for (auto& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+// A Radiance RGBE file in memory, checked and given a canonical header:
+// "#?RADIANCE", "FORMAT=32-bit_rle_rgbe", a blank line, "-Y h +X w", then the
+// file's pixel data unchanged. The pixel data is checked against the grammar
+// stb_image 2.27 decodes (flat 4-byte RGBE texels for widths outside [8,
+// 32767], else one run-length-encoded scanline after another) before stb sees
+// it: stb loops forever on a truncated run-length-encoded scanline (a count
+// of 0 read past the end makes no progress) and fills truncated flat data
+// with garbage. Header lines other than FORMAT (GAMMA, PRIMARIES, EXPOSURE,
+// a repeated "#?RADIANCE", comments) are ignored, as stb and most renderers
+// do.
+inline std::vector<unsigned char> canonical_rgbe(const std::vector<unsigned char>& file, const std::string& path) {
+  const std::string where = path + ": Radiance HDR: ";
+  size_t pos = 0;
+  auto next_line = [&](std::string& line) {
+    line.clear();
+    while (pos < file.size() && file[pos] != '\n') line.push_back(char(file[pos++]));
+    if (pos >= file.size()) return false;
+    ++pos;  // the newline
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  };
+  std::string line;
+  if (!next_line(line) || (line != "#?RADIANCE" && line != "#?RGBE"))
+    throw Error(where + "not a Radiance RGBE file (the first line must be #?RADIANCE or #?RGBE)");
+  for (;;) {
+    if (!next_line(line)) throw Error(where + "the header does not end (no blank line before the resolution)");
+    if (line.empty()) break;
+    if (line.rfind("FORMAT=", 0) == 0 && line != "FORMAT=32-bit_rle_rgbe")
+      throw Error(where + "unsupported " + line + " (only 32-bit_rle_rgbe)");
+  }
+  if (!next_line(line)) throw Error(where + "no resolution line after the header");
+  // "-Y h +X w" with 0 < w, h <= 2^24 (stb's limit).
+  int w = 0, h = 0;
+  {
+    const char* c = line.c_str();
+    char* end = nullptr;
+    auto dimension = [&](const char* label) {
+      if (std::strncmp(c, label, 3) != 0) return 0L;
+      errno = 0;
+      long v = std::strtol(c + 3, &end, 10);
+      if (errno != 0 || end == c + 3 || v <= 0 || v > (1L << 24)) return 0L;
+      c = end;
+      while (*c == ' ') ++c;
+      return v;
+    };
+    h = int(dimension("-Y "));
+    w = h > 0 ? int(dimension("+X ")) : 0;
+    if (w <= 0 || *c != 0)
+      throw Error(where + "resolution line '" + line +
+                  "' is not supported (only '-Y height +X width', sizes 1 to 2^24: rows from the top, left to right)");
+  }
+  const size_t data = pos, n = file.size();
+  auto truncated = [&](int row) {
+    return Error(where + "truncated pixel data (scanline " + std::to_string(row) + " of " + std::to_string(h) + ")");
+  };
+  auto check_flat = [&]() {
+    size_t need = 4 * size_t(w) * size_t(h);
+    if (n - data < need) throw truncated(int((n - data) / (4 * size_t(w))));
+  };
+  if (w < 8 || w >= 32768) {
+    check_flat();
+  } else {
+    size_t p = data;
+    for (int row = 0; row < h; ++row) {
+      if (n - p < 4) throw truncated(row);
+      if (file[p] != 2 || file[p + 1] != 2 || (file[p + 2] & 0x80)) {
+        // Not run-length encoded: flat texels, which stb accepts only from the start.
+        if (row == 0) {
+          check_flat();
+          break;
+        }
+        throw Error(where + "scanline " + std::to_string(row) +
+                    " is not run-length encoded but the ones before it are");
+      }
+      int len = (int(file[p + 2]) << 8) | int(file[p + 3]);
+      if (len != w)
+        throw Error(where + "scanline " + std::to_string(row) + " has length " + std::to_string(len) +
+                    ", expected the width " + std::to_string(w));
+      p += 4;
+      for (int channel = 0; channel < 4; ++channel)
+        for (int i = 0; i < w;) {
+          if (p >= n) throw truncated(row);
+          int count = file[p++];
+          bool run = count > 128;
+          if (run) count -= 128;
+          if (count == 0 || count > w - i)
+            throw Error(where + "bad run-length data in scanline " + std::to_string(row));
+          size_t bytes = run ? 1 : size_t(count);
+          if (n - p < bytes) throw truncated(row);
+          p += bytes;
+          i += count;
+        }
+    }
+  }
+  std::string header = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y " + std::to_string(h) + " +X " + std::to_string(w) + "\n";
+  std::vector<unsigned char> out(header.begin(), header.end());
+  out.insert(out.end(), file.begin() + std::ptrdiff_t(data), file.end());
+  return out;
+}
+
+inline EnvironmentImage read_rgbe(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot open");
+  std::vector<unsigned char> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (f.bad()) throw Error(path + ": read failed");
+  std::vector<unsigned char> mem = canonical_rgbe(file, path);
+  if (mem.size() > size_t(std::numeric_limits<int>::max())) throw Error(path + ": Radiance HDR: file too large");
+  int w = 0, h = 0, channels = 0;
+  // Rows come from the top unless the caller set stb's global vertical flip.
+  float* data = stbi_loadf_from_memory(mem.data(), int(mem.size()), &w, &h, &channels, 3);
+  if (!data) {
+    const char* why = stbi_failure_reason();
+    throw Error(path + ": cannot decode Radiance HDR: " + (why ? why : "unknown error"));
+  }
+  EnvironmentImage img{w, h, std::vector<float>(data, data + size_t(w) * size_t(h) * 3)};
+  stbi_image_free(data);
+  return img;
+}
+}  // namespace detail
+
+// An equirectangular environment map from a file, by extension (any case):
+// .hdr (Radiance RGBE), .exr (the R, G, B channels; alpha is dropped) or .pfm
+// (RGB). Row 0 of the result is the file's top row, which ImageInfiniteLight
+// takes as the +y pole. Any aspect ratio. Throws prism::Error naming the file
+// and what is wrong: it does not exist or cannot be read, an unknown
+// extension, a malformed or truncated file, or a texel that is not finite and
+// non-negative (with its x, y from the top left).
+inline EnvironmentImage read_environment(const std::string& path) {
+  const std::string ext = detail::env_file_extension(path);
+  if (ext != ".hdr" && ext != ".exr" && ext != ".pfm")
+    throw Error(path + ": unknown environment map format '" + ext + "' (use .hdr, .exr or .pfm)");
+  if (!std::ifstream(path, std::ios::binary)) throw Error(path + ": cannot open (missing or unreadable)");
+  EnvironmentImage img;
+  if (ext == ".hdr") {
+    img = detail::read_rgbe(path);
+  } else {
+    Image rgb = ext == ".exr" ? read_exr(path) : read_pfm(path);
+    img = EnvironmentImage{rgb.width, rgb.height, std::move(rgb.rgb)};
+  }
+  for (size_t i = 0; i < img.rgb.size(); ++i) {
+    float v = img.rgb[i];
+    if (!std::isfinite(v) || v < 0) {
+      size_t t = i / 3;
+      throw Error(path + ": texel (" + std::to_string(t % size_t(img.width)) + ", " +
+                  std::to_string(t / size_t(img.width)) + ") channel " + "rgb"[i % 3] + " is " + std::to_string(v) +
+                  ": an environment map's radiance must be finite and non-negative");
+    }
+  }
+  return img;
 }
 
 }  // namespace prism

@@ -4,9 +4,12 @@
 // they subtend when the receiver is outside (pbrt-v4 book, section 6.2.4) and
 // by area otherwise; sample_li converts area densities to solid angle.
 #pragma once
+#include <array>
+#include <memory>
 #include "prism/geometry/sphere.hpp"
 #include "prism/lights/light.hpp"
 #include "prism/sampling/warps.hpp"
+#include "prism/textures/texture.hpp"
 
 namespace prism {
 
@@ -33,31 +36,64 @@ inline std::optional<EmittedDirection> sample_emitted_direction(Normal3f n, bool
 }  // namespace detail
 
 struct AreaEmission {
+  AreaEmission(RGB radiance_ = RGB(1), Float scale_ = 1, bool two_sided_ = false,
+               std::shared_ptr<const ImageTexture> texture_ = nullptr)
+      : radiance(radiance_), scale(scale_), two_sided(two_sided_), texture(std::move(texture_)) {}
   RGB radiance{1};
   Float scale = 1;
   bool two_sided = false;
+  // Optional emissive texture (glTF emissiveTexture, sRGB): its rgb
+  // multiplies radiance at the point's uv (the texture's texcoord set).
+  std::shared_ptr<const ImageTexture> texture;
 };
 
 template <class S>
 class TriangleAreaLight {
  public:
   // p0, p1, p2 in world space; the front side is that of (p1 - p0) x (p2 - p0).
+  // uv: the vertices' texture coordinates in the emissive texture's set
+  // (needed only with a texture).
   TriangleAreaLight(const Point3f& p0, const Point3f& p1, const Point3f& p2, const AreaEmission& e, uint32_t instance,
-                    uint32_t primitive)
-      : m_p{p0, p1, p2}, m_emission(e), m_instance(instance), m_primitive(primitive) {
+                    uint32_t primitive, const std::array<Point2f, 3>& uv = {},
+                    std::optional<RGB> texture_mean = std::nullopt)
+      : m_p{p0, p1, p2}, m_uv(uv), m_emission(e), m_instance(instance), m_primitive(primitive) {
     Vector3f c = cross(p1 - p0, p2 - p0);
     m_area = length(c) / 2;
     m_n = Normal3f(normalize(c));
+    m_rgb = e.radiance * e.scale;
+    if (e.texture) {
+      // The power estimate: the texture at the centroid and the vertices,
+      // plus a small share of its mean so that no triangle that may emit
+      // gets probability 0 (the caustic pass starts paths by power).
+      RGB sum(0);
+      Point2f centroid = uv[0] * (Float(1) / 3) + uv[1] * (Float(1) / 3) + uv[2] * (Float(1) / 3);
+      sum = sum + e.texture->evaluate(centroid).rgb * 2;
+      for (int i = 0; i < 3; ++i) sum = sum + e.texture->evaluate(uv[size_t(i)]).rgb;
+      // texture_mean: the texture's average(), passed in when many lights share it.
+      RGB mean = texture_mean ? *texture_mean : e.texture->average();
+      m_power_rgb = m_rgb * (sum / 5 + mean * Float(1e-3));
+    } else {
+      m_power_rgb = m_rgb;
+    }
   }
 
   LightKind kind() const { return LightKind::area; }
   Float area() const { return m_area; }
 
   // Radiance leaving the light at a point with geometric normal n towards w.
+  // Without a texture; with one, the texture's value at the centroid.
   template <class W>
   S L(const Normal3f& /*n*/, const Vector3f& w, const W& lambda) const {
     if (!m_emission.two_sided && dot(m_n, w) < 0) return S{};
-    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+    return spectrum_traits<S>::illuminant(radiance_at({Float(1) / 3, Float(1) / 3, Float(1) / 3}), lambda);
+  }
+  // Radiance leaving the light at the hit si towards si.wo.
+  template <class W>
+  S L(const SurfaceInteraction& si, const W& lambda) const {
+    if (!m_emission.two_sided && dot(m_n, si.wo) < 0) return S{};
+    if (!m_emission.texture) return spectrum_traits<S>::illuminant(m_rgb, lambda);
+    Point2f uv = m_emission.texture->texcoord == 1 ? si.uv1 : si.uv;
+    return spectrum_traits<S>::illuminant(m_rgb * m_emission.texture->evaluate(uv).rgb, lambda);
   }
 
   template <class W>
@@ -72,7 +108,8 @@ class TriangleAreaLight {
     Vector3f wi = to_light / std::sqrt(d2);
     Float cos_l = std::abs(dot(m_n, wi));
     if (cos_l == 0) return std::nullopt;
-    S Le = L(m_n, -wi, lambda);
+    if (!m_emission.two_sided && dot(m_n, -wi) < 0) return std::nullopt;
+    S Le = spectrum_traits<S>::illuminant(radiance_at(b), lambda);
     if (Le.is_black()) return std::nullopt;
     Float pdf = d2 / (cos_l * m_area);
     if (!std::isfinite(pdf)) return std::nullopt;
@@ -97,19 +134,29 @@ class TriangleAreaLight {
     Vector3f p_err = (abs(v0 * b[0]) + abs(v1 * b[1]) + abs(v2 * b[2])) * gamma(6);
     auto d = detail::sample_emitted_direction(m_n, m_emission.two_sided, u_dir, u_side);
     if (!d) return std::nullopt;
-    S Le = spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+    S Le = spectrum_traits<S>::illuminant(radiance_at(b), lambda);
     Ray ray{offset_ray_origin(p, p_err, d->n, d->w), d->w};
     return LightLeSample<S>{Le, ray, d->n, 1 / m_area, d->pdf, m_instance, m_primitive};
   }
 
+  // With an emissive texture, an estimate (see the constructor).
   template <class W>
   S power(const W& lambda) const {
     Float sides = m_emission.two_sided ? 2 : 1;
-    return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda) * (pi * sides * m_area);
+    return spectrum_traits<S>::illuminant(m_power_rgb, lambda) * (pi * sides * m_area);
   }
 
  private:
+  // Radiance (RGB) at barycentrics b.
+  RGB radiance_at(const std::array<Float, 3>& b) const {
+    if (!m_emission.texture) return m_rgb;
+    Point2f uv = m_uv[0] * b[0] + m_uv[1] * b[1] + m_uv[2] * b[2];
+    return m_rgb * m_emission.texture->evaluate(uv).rgb;
+  }
+
   Point3f m_p[3];
+  std::array<Point2f, 3> m_uv;
+  RGB m_rgb, m_power_rgb;
   Normal3f m_n;
   Float m_area = 0;
   AreaEmission m_emission;

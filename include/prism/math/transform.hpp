@@ -82,6 +82,14 @@ class Transform {
   const Matrix4& inverse_matrix() const { return m_inv; }
   bool invertible() const { return !std::isnan(m_inv.m[0][0]); }
   bool is_identity() const { return m_m.is_identity(); }
+  // True if the upper 3x3 has a negative determinant (a mirroring transform:
+  // it flips triangle winding and tangent-frame handedness).
+  bool swaps_handedness() const {
+    const auto& m = m_m.m;
+    Float det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    return det < 0;
+  }
   Transform operator*(const Transform& t) const { return {m_m * t.m_m, t.m_inv * m_inv}; }
   friend Transform inverse(const Transform& t) { return {t.m_inv, t.m_m}; }
 

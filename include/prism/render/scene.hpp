@@ -5,6 +5,7 @@
 // build() validates and builds the acceleration structure; it throws
 // prism::Error naming the object and what is wrong.
 #pragma once
+#include <cstring>
 #include <string>
 #include <variant>
 #include <vector>
@@ -115,13 +116,42 @@ class Scene {
         continue;
       }
       const TriangleMesh& mesh = meshes[in.geometry];
+      // A mirroring transform reverses the winding (glTF: the front face is
+      // the one the object-space winding names, whatever the determinant).
+      bool mirror = in.object_to_world.swaps_handedness();
+      std::optional<RGB> texture_mean;
+      if (info.emission->texture) texture_mean = info.emission->texture->average();
       for (size_t t = 0; t < mesh.triangle_count(); ++t) {
         Point3f p[3];
         for (int j = 0; j < 3; ++j) p[j] = in.object_to_world(mesh.positions[mesh.indices[3 * t + size_t(j)]]);
-        m_lights.emplace_back(TriangleAreaLight<S>(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t)));
+        std::array<Point2f, 3> uv{};
+        if (info.emission->texture) {
+          const auto& set = info.emission->texture->texcoord == 1 ? mesh.uvs1 : mesh.uvs;
+          if (!set.empty())
+            for (int j = 0; j < 3; ++j) uv[size_t(j)] = set[mesh.indices[3 * t + size_t(j)]];
+        }
+        if (mirror) {
+          std::swap(p[1], p[2]);
+          std::swap(uv[1], uv[2]);
+        }
+        m_lights.emplace_back(TriangleAreaLight<S>(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t), uv,
+                                                   texture_mean));
       }
     }
     m_area_light_count = m_lights.size();
+    m_transparent.assign(m_materials.size(), 0);
+    m_any_transparent = false;
+    for (size_t i = 0; i < m_materials.size(); ++i) {
+      m_transparent[i] = std::visit(
+          [](const auto& p) -> uint8_t {
+            if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::may_be_transparent(p); })
+              return traits_of<std::decay_t<decltype(p)>>::may_be_transparent(p) ? 1 : 0;
+            else
+              return 0;
+          },
+          m_materials[i]);
+      if (m_transparent[i]) m_any_transparent = true;
+    }
     m_has_specular = false;
     for (const auto& m : m_materials)
       if (std::visit([](const auto& p) { return material_has_specular(p); }, m)) m_has_specular = true;
@@ -155,19 +185,28 @@ class Scene {
     }
   }
 
+  // The closest surface along the ray. Surfaces whose material may be
+  // transparent (glTF alphaMode mask or blend: bxdf_traits::opacity) are
+  // passed through where they are not there; a blended surface is kept with
+  // probability equal to its opacity, decided by a hash of the ray and the
+  // primitive, so the result depends on nothing but the ray.
   std::optional<SurfaceInteraction> intersect(const Ray& ray, Float t_max = infinity) const {
-    auto h = m_accel.intersect(ray, t_max);
-    if (!h) return std::nullopt;
-    SurfaceInteraction si = m_accel.interaction(ray, *h);
-    const auto& info = m_info[h->instance];
-    si.material = info.material;
-    si.area_light = info.light_offset < 0 ? -1 : info.light_offset + int32_t(h->primitive);
-    return si;
+    if (!m_any_transparent) {
+      auto h = m_accel.intersect(ray, t_max);
+      if (!h) return std::nullopt;
+      return interaction(ray, *h);
+    }
+    return intersect_with_alpha(ray, t_max, UINT32_MAX, UINT32_MAX, nullptr);
   }
   bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
                 uint32_t skip_primitive = UINT32_MAX) const {
-    return m_accel.occluded(ray, t_max, skip_instance, skip_primitive);
+    if (!m_any_transparent) return m_accel.occluded(ray, t_max, skip_instance, skip_primitive);
+    bool skipped = false;
+    auto si = intersect_with_alpha(ray, t_max, skip_instance, skip_primitive, &skipped);
+    return si.has_value() && !skipped;
   }
+  // True if some instance's material may be transparent (alpha); valid after build().
+  bool has_transparency() const { return m_any_transparent; }
 
   template <class W>
   bsdf_type bsdf(const SurfaceInteraction& si, W&& lambda) const {
@@ -212,7 +251,64 @@ class Scene {
   const SceneAccel& accel() const { return m_accel; }
   Bounds3f bounds() const { return m_accel.bounds(); }
 
+
  private:
+  SurfaceInteraction interaction(const Ray& ray, const Hit& h) const {
+    SurfaceInteraction si = m_accel.interaction(ray, h);
+    const auto& info = m_info[h.instance];
+    si.material = info.material;
+    si.area_light = info.light_offset < 0 ? -1 : info.light_offset + int32_t(h.primitive);
+    return si;
+  }
+  Float material_opacity(const SurfaceInteraction& si) const {
+    return std::visit(
+        [&](const auto& p) -> Float {
+          if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::opacity(p, si); })
+            return traits_of<std::decay_t<decltype(p)>>::opacity(p, si);
+          else
+            return Float(1);
+        },
+        m_materials[size_t(si.material)]);
+  }
+  // A number in [0, 1) from the ray and the primitive it hit.
+  static Float alpha_hash(const Ray& r, const Hit& h) {
+    auto bits = [](Float f) {
+      uint32_t u;
+      std::memcpy(&u, &f, sizeof u);
+      return uint64_t(u);
+    };
+    uint64_t k = bits(r.o.x) ^ (bits(r.o.y) << 21) ^ (bits(r.o.z) << 42);
+    k ^= (bits(r.d.x) << 7) ^ (bits(r.d.y) << 29) ^ (bits(r.d.z) << 51);
+    k ^= (uint64_t(h.instance) << 32) ^ uint64_t(h.primitive) * 0x9E3779B97F4A7C15ull;
+    // splitmix64 finaliser
+    k = (k ^ (k >> 30)) * 0xBF58476D1CE4E5B9ull;
+    k = (k ^ (k >> 27)) * 0x94D049BB133111EBull;
+    k ^= k >> 31;
+    return Float(k >> 40) * Float(0x1p-24);
+  }
+  // The closest opaque-enough hit; stops at the skip primitive (setting
+  // *skipped) so that a shadow ray ending on a light is not blocked by it.
+  std::optional<SurfaceInteraction> intersect_with_alpha(Ray r, Float t_max, uint32_t skip_instance,
+                                                         uint32_t skip_primitive, bool* skipped) const {
+    // A bound on pass-throughs, so that a ray grazing a stack of cut-out
+    // layers ends: past it the surface counts as opaque.
+    constexpr int max_layers = 256;
+    for (int layer = 0;; ++layer) {
+      auto h = m_accel.intersect(r, t_max);
+      if (!h) return std::nullopt;
+      SurfaceInteraction si = interaction(r, *h);
+      if (skipped && h->instance == skip_instance && h->primitive == skip_primitive) {
+        *skipped = true;
+        return si;
+      }
+      if (layer == max_layers || !m_transparent[size_t(si.material)]) return si;
+      Float a = material_opacity(si);
+      if (a >= 1 || (a > 0 && alpha_hash(r, *h) < a)) return si;
+      t_max -= h->t;
+      r = si.spawn_ray(r.d);
+    }
+  }
+
   // The BxDF whose material type is P (material types are unique in a set).
   template <class P, size_t I = 0>
   static constexpr size_t bxdf_index_of() {
@@ -252,6 +348,12 @@ class Scene {
       throw Error(where + "normal count differs from the vertex count");
     if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
       throw Error(where + "uv count differs from the vertex count");
+    if (!m.uvs1.empty() && m.uvs1.size() != m.positions.size())
+      throw Error(where + "uv1 count differs from the vertex count");
+    if (!m.tangents.empty() && m.tangents.size() != m.positions.size())
+      throw Error(where + "tangent count differs from the vertex count");
+    if (!m.colors.empty() && m.colors.size() != m.positions.size())
+      throw Error(where + "colour count differs from the vertex count");
   }
 
   struct InstanceInfo {
@@ -266,6 +368,8 @@ class Scene {
   std::vector<light_type> m_lights;        // area lights first, then the others
   size_t m_area_light_count = 0;
   bool m_has_specular = false;
+  std::vector<uint8_t> m_transparent;  // per material: may_be_transparent
+  bool m_any_transparent = false;
   std::vector<uint32_t> m_infinite_indices;
   LightSelection m_selection = LightSelection::power;
   PowerLightSampler m_light_sampler, m_area_light_sampler;
