@@ -151,6 +151,9 @@ int run_default(const Job& job, const char* model) {
 template <class S>
 int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
   using namespace prism;
+  if (job.camera >= int(g.cameras.size()))
+    return fail("--camera " + std::to_string(job.camera) + ": the scene has " + std::to_string(g.cameras.size()) +
+                " cameras");
   try {
     if (!job.env.empty()) {
       g.scene.add_light(ImageInfiniteLight<S>(read_environment(job.env), job.env_scale));
@@ -164,9 +167,6 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
   } catch (const Error& e) {
     return fail(e.what());
   }
-  if (job.camera >= int(g.cameras.size()))
-    return fail("--camera " + std::to_string(job.camera) + ": the scene has " + std::to_string(g.cameras.size()) +
-                " cameras");
   try {
     if (job.camera >= 0 || !g.cameras.empty()) {
       const GltfCamera& c = g.cameras[size_t(std::max(job.camera, 0))];

@@ -30,6 +30,31 @@ expect_error --sampler nope
 expect_error --aperture -1
 expect_error --focus-distance 0
 expect_error --tonemap nope
+# glTF scenes: a one-triangle file written here, and broken ones.
+tri="$tmp/tri.gltf"
+cat > "$tri" <<'JSON'
+{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+ "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+ "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+ "bufferViews":[{"buffer":0,"byteLength":36}],
+ "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}
+JSON
+sed 's/"count":3/"count":4/' "$tri" > "$tmp/tri_bad_count.gltf"
+printf 'not json at all' > "$tmp/garbage.gltf"
+expect_error "$tmp/does_not_exist.gltf"
+expect_error "$tmp/garbage.gltf"
+expect_error "$tmp/tri_bad_count.gltf"
+expect_error "$tri" --camera 3
+expect_error "$tri" --env "$tmp/missing.hdr"
+expect_error --env "$tmp/missing.hdr"
+err=$("$bin" "$tmp/tri_bad_count.gltf" 2>&1 >/dev/null)
+if ! printf '%s' "$err" | grep -q 'tri_bad_count.gltf' || ! printf '%s' "$err" | grep -q 'accessors\['; then
+  echo "FAIL: the bad accessor error does not name the file and the element: $err"; fails=$((fails+1))
+fi
+out=$("$bin" "$tri" --width 16 --height 16 --spp 2 --out "$tmp/tri.pfm" -q 2>/dev/null); rc=$?
+if [ "$rc" != 0 ] || [ ! -s "$tmp/tri.pfm" ]; then echo "FAIL: the one-triangle glTF did not render ($rc)"; fails=$((fails+1));
+else echo "ok: one-triangle glTF renders: $out"; fi
+
 chmod 500 "$tmp" 2>/dev/null
 if [ "$(id -u)" != 0 ]; then expect_error --out "$tmp/ro.png"; fi
 chmod 700 "$tmp"

@@ -287,7 +287,13 @@ class MetalRoughBxDF {
   // f (if f is not null) and the pdf (if pdf is not null; with the lobe
   // probabilities p at wo) for wo.z > 0, wi.z != 0: one microfacet
   // evaluation serves both.
+  // Rounding in the Fresnel and coupling terms can leave f a few ulps below
+  // zero where it should be exactly 0: clamp, so no sample is negative.
   void eval_pdf_up(const Vector3f& wo, const Vector3f& wi, const Lobes& p, S* f, Float* pdf) const {
+    eval_pdf_up_unclamped(wo, wi, p, f, pdf);
+    if (f) *f = clamp_zero(*f);
+  }
+  void eval_pdf_up_unclamped(const Vector3f& wo, const Vector3f& wi, const Lobes& p, S* f, Float* pdf) const {
     if (f) *f = S{};
     if (pdf) *pdf = 0;
     Microfacet mf;

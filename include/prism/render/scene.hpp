@@ -249,6 +249,7 @@ class Scene {
   // Chooses among the area lights only (by power): where light paths start.
   const PowerLightSampler& area_light_sampler() const { return m_area_light_sampler; }
   const SceneAccel& accel() const { return m_accel; }
+  const std::vector<material_type>& materials() const { return m_materials; }
   Bounds3f bounds() const { return m_accel.bounds(); }
 
 
