@@ -3,6 +3,7 @@
 // READMEs say is correct: texture coordinates, node orientations, instancing,
 // normal-map handedness and emissive strengths. Skipped when ../shared is absent.
 #include <catch2/catch.hpp>
+#include "support/skip.hpp"
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -10,11 +11,6 @@
 
 using namespace prism;
 
-#define PRISM_TEST_SKIP(msg)  \
-  do {                        \
-    WARN("SKIPPED: " << msg); \
-    return;                   \
-  } while (0)
 
 namespace {
 

@@ -12,16 +12,10 @@
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
 #include "support/chi2.hpp"
+#include "support/skip.hpp"
 
 using namespace prism;
 using Catch::Matchers::Contains;
-
-// ctest marks a test skipped when its output matches "SKIPPED: " (tests/CMakeLists.txt).
-#define PRISM_TEST_SKIP(msg)      \
-  do {                            \
-    WARN("SKIPPED: " << msg);     \
-    return;                       \
-  } while (0)
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
