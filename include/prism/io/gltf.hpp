@@ -16,7 +16,9 @@
 #pragma once
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -27,6 +29,7 @@
 #include <tuple>
 #include <vector>
 #include <stb/stb_image.h>
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 #include "prism/prism.hpp"
 
@@ -128,12 +131,27 @@ inline bool harmless_extension(const std::string& e) { return e == "KHR_xmp" || 
 // parallel.
 struct PendingImages {
   std::vector<std::vector<unsigned char>> encoded;  // by image index
+  const tinygltf::Model* model = nullptr;           // being parsed: its buffers and bufferViews are in
 };
 
-inline bool defer_image(tinygltf::Image* image, const int image_idx, std::string* /*err*/, std::string* /*warn*/,
+inline bool defer_image(tinygltf::Image* image, const int image_idx, std::string* err, std::string* /*warn*/,
                         int /*req_width*/, int /*req_height*/, const unsigned char* bytes, int size, void* user) {
   auto* pending = static_cast<PendingImages*>(user);
   if (image_idx < 0) return false;
+  // tinygltf 2.7 hands over an image's bufferView without checking its byte
+  // range against the buffer (it checked both indices).
+  if (image->bufferView >= 0 && pending->model) {
+    const auto& bv = pending->model->bufferViews[size_t(image->bufferView)];
+    const auto& buf = pending->model->buffers[size_t(bv.buffer)];
+    if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset) {
+      if (err)
+        *err += "images[" + std::to_string(image_idx) + "]: bufferViews[" + std::to_string(image->bufferView) +
+                "] byte range [" + std::to_string(bv.byteOffset) + ", " + std::to_string(bv.byteOffset + bv.byteLength) +
+                ") runs past the end of buffers[" + std::to_string(bv.buffer) + "] (" + std::to_string(buf.data.size()) +
+                " bytes)\n";
+      return false;
+    }
+  }
   if (pending->encoded.size() <= size_t(image_idx)) pending->encoded.resize(size_t(image_idx) + 1);
   pending->encoded[size_t(image_idx)].assign(bytes, bytes + std::max(size, 0));
   image->width = image->height = image->component = 0;
@@ -185,24 +203,41 @@ class Loader {
     std::error_code ec;
     if (!std::filesystem::exists(m_path, ec)) throw Error(m_path + ": no such file");
     if (std::filesystem::is_directory(m_path, ec)) throw Error(m_path + ": is a directory, not a glTF file");
-    tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&defer_image, &m_pending);
-    std::string err, warn_text;
-    std::string ext = std::filesystem::path(m_path).extension().string();
-    for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    // Sniff the container rather than trust the extension.
-    bool binary = false;
+    std::vector<unsigned char> file;
     {
       FILE* f = std::fopen(m_path.c_str(), "rb");
       if (!f) throw Error(m_path + ": cannot be opened");
-      char magic[4] = {};
-      size_t got = std::fread(magic, 1, 4, f);
+      unsigned char chunk[65536];
+      for (size_t got; (got = std::fread(chunk, 1, sizeof chunk, f)) > 0;) file.insert(file.end(), chunk, chunk + got);
+      bool bad = std::ferror(f);
       std::fclose(f);
-      binary = got == 4 && std::memcmp(magic, "glTF", 4) == 0;
-      if (ext == ".glb" && !binary) throw Error(m_path + ": GLB header: wrong magic (expected 'glTF')");
+      if (bad) throw Error(m_path + ": read error");
     }
-    bool ok = binary ? loader.LoadBinaryFromFile(&m_model, &err, &warn_text, m_path)
-                     : loader.LoadASCIIFromFile(&m_model, &err, &warn_text, m_path);
+    std::string ext = std::filesystem::path(m_path).extension().string();
+    for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    // Sniff the container rather than trust the extension.
+    bool binary = file.size() >= 4 && std::memcmp(file.data(), "glTF", 4) == 0;
+    if (ext == ".glb" && !binary) fail("GLB header", "wrong magic (expected 'glTF')");
+    if (file.size() > std::numeric_limits<uint32_t>::max()) fail(binary ? "GLB header" : "JSON", "file larger than 4 GB");
+    std::string base_dir = std::filesystem::path(m_path).parent_path().string();
+    size_t json_at = 0, json_size = file.size();
+    if (binary) check_glb(file, json_at, json_size);
+    preflight(reinterpret_cast<const char*>(file.data()) + json_at, json_size, base_dir);
+
+    tinygltf::TinyGLTF loader;
+    m_pending.model = &m_model;
+    loader.SetImageLoader(&defer_image, &m_pending);
+    std::string err, warn_text;
+    bool ok = false;
+    try {
+      ok = binary ? loader.LoadBinaryFromMemory(&m_model, &err, &warn_text, file.data(), unsigned(file.size()), base_dir)
+                  : loader.LoadASCIIFromString(&m_model, &err, &warn_text, reinterpret_cast<const char*>(file.data()),
+                                               unsigned(file.size()), base_dir);
+    } catch (const std::bad_alloc&) {
+      fail("JSON", "out of memory while parsing");
+    } catch (const std::exception& e) {  // tinygltf lets some of nlohmann's through
+      err = e.what();
+    }
     if (!ok) {
       std::string msg = err.empty() ? warn_text : err;
       while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
@@ -212,6 +247,153 @@ class Loader {
     }
     if (!m_model.asset.version.empty() && m_model.asset.version.rfind("2.", 0) != 0)
       fail("asset.version", "'" + m_model.asset.version + "' is not glTF 2.x");
+  }
+
+  // The GLB container (tinygltf 2.7 ignores the version and reports the rest
+  // as "Invalid glTF binary."): 12-byte header, JSON chunk, optional BIN chunk.
+  void check_glb(const std::vector<unsigned char>& f, size_t& json_at, size_t& json_size) const {
+    auto u32 = [&](size_t at) {
+      return uint32_t(f[at]) | uint32_t(f[at + 1]) << 8 | uint32_t(f[at + 2]) << 16 | uint32_t(f[at + 3]) << 24;
+    };
+    auto hex = [](uint32_t v) {
+      char b[16];
+      std::snprintf(b, sizeof b, "0x%08X", v);
+      return std::string(b);
+    };
+    size_t n = f.size();
+    if (n < 12) fail("GLB header", "truncated: the file has " + std::to_string(n) + " bytes, the header 12");
+    if (u32(4) != 2) fail("GLB header", "version " + std::to_string(u32(4)) + " is not 2");
+    if (u32(8) != n)
+      fail("GLB header", "length " + std::to_string(u32(8)) + " does not match the file size " + std::to_string(n) +
+                             (u32(8) > n ? " (truncated file?)" : ""));
+    if (n < 20) fail("GLB chunk 0 (JSON)", "missing: the file ends after the header");
+    size_t len = u32(12);
+    if (u32(16) != 0x4E4F534A) fail("GLB chunk 0", "type " + hex(u32(16)) + " is not JSON (0x4E4F534A)");
+    if (len == 0) fail("GLB chunk 0 (JSON)", "length 0");
+    if (len > n - 20)
+      fail("GLB chunk 0 (JSON)", "length " + std::to_string(len) + " runs past the end of the file (" +
+                                     std::to_string(n - 20) + " bytes after the chunk header)");
+    json_at = 20;
+    json_size = len;
+    size_t at = 20 + len;
+    if (at == n) return;
+    if (n - at < 8) fail("GLB chunk 1", "truncated: " + std::to_string(n - at) + " bytes after the JSON chunk");
+    size_t bin = u32(at);
+    if (u32(at + 4) != 0x004E4942) fail("GLB chunk 1", "type " + hex(u32(at + 4)) + " is not BIN (0x004E4942)");
+    if (bin > n - at - 8)
+      fail("GLB chunk 1 (BIN)", "length " + std::to_string(bin) + " runs past the end of the file (" +
+                                    std::to_string(n - at - 8) + " bytes after the chunk header)");
+  }
+
+  // What tinygltf checks with a message naming no element, checked first
+  // here: external buffer files, and the indices it follows while parsing.
+  // A JSON syntax error is left to tinygltf to report.
+  void preflight(const char* text, size_t size, const std::string& base_dir) const {
+    using json = nlohmann::json;
+    json j = json::parse(text, text + size, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return;
+    auto array = [&](const char* key) {
+      auto it = j.find(key);
+      return it != j.end() && it->is_array() ? &*it : nullptr;
+    };
+    auto length = [&](const char* key) {
+      const json* a = array(key);
+      return a ? a->size() : size_t(0);
+    };
+    // An integer member, or `fallback` when absent or not an integer.
+    auto integer = [](const json& o, const char* key, int64_t fallback) {
+      auto it = o.find(key);
+      return it != o.end() && it->is_number_integer() ? it->get<int64_t>() : fallback;
+    };
+    auto check = [&](int64_t i, size_t n, const std::string& element, const char* kind) {
+      if (i < 0 || uint64_t(i) >= n)
+        fail(element, std::string(kind) + " index " + std::to_string(i) + " out of range (" + std::to_string(n) + " " +
+                          kind + "s)");
+    };
+    if (const json* buffers = array("buffers"))
+      for (size_t b = 0; b < buffers->size(); ++b) {
+        const json& buf = (*buffers)[b];
+        if (!buf.is_object() || !buf.contains("uri") || !buf["uri"].is_string()) continue;
+        std::string uri = buf["uri"].get<std::string>();
+        if (uri.empty() || uri.rfind("data:", 0) == 0) continue;
+        std::string where = idx("buffers", int(b)) + " ('" + uri + "')";
+        std::error_code ec;
+        std::filesystem::path file = std::filesystem::path(base_dir) / url_decode(uri);
+        if (!std::filesystem::is_regular_file(file, ec)) fail(where, "file not found");
+        int64_t want = integer(buf, "byteLength", -1);
+        auto have = std::filesystem::file_size(file, ec);
+        if (!ec && want >= 0 && uint64_t(want) != have)
+          fail(where, "the file has " + std::to_string(have) + " bytes, byteLength says " + std::to_string(want));
+      }
+    const json* views = array("bufferViews");
+    if (const json* meshes = array("meshes"))
+      for (size_t m = 0; m < meshes->size(); ++m) {
+        const json& mesh = (*meshes)[m];
+        if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+        for (size_t p = 0; p < mesh["primitives"].size(); ++p) {
+          const json& prim = mesh["primitives"][p];
+          std::string pw = idx("meshes", int(m)) + ".primitives[" + std::to_string(p) + "]";
+          // tinygltf silently drops such a primitive (and renumbers the rest).
+          if (!prim.is_object()) fail(pw, "is not an object");
+          if (!prim.contains("attributes") || !prim["attributes"].is_object())
+            fail(pw + ".attributes", "missing or not an object (every primitive needs POSITION)");
+          for (const auto& [name, a] : prim["attributes"].items())
+            if (!a.is_number_integer()) fail(pw + ".attributes." + name, "is not an accessor index");
+          if (!prim.contains("indices")) continue;
+          std::string where = pw + ".indices";
+          int64_t a = integer(prim, "indices", -1);
+          check(a, length("accessors"), where, "accessor");
+          const json& acc = (*array("accessors"))[size_t(a)];
+          int64_t v = acc.is_object() ? integer(acc, "bufferView", -1) : -1;
+          if (v < 0) fail(where + " (" + idx("accessors", int(a)) + ")", "has no bufferView (indices need one)");
+          check(v, length("bufferViews"), where + " (" + idx("accessors", int(a)) + ").bufferView", "bufferView");
+        }
+      }
+    if (const json* animations = array("animations"))
+      for (size_t a = 0; a < animations->size(); ++a) {
+        const json& an = (*animations)[a];
+        if (!an.is_object() || !an.contains("channels") || !an["channels"].is_array()) continue;
+        for (size_t c = 0; c < an["channels"].size(); ++c) {
+          // tinygltf silently drops such a channel too.
+          const json& ch = an["channels"][c];
+          std::string cw = idx("animations", int(a)) + ".channels[" + std::to_string(c) + "]";
+          if (!ch.is_object()) fail(cw, "is not an object");
+          if (!ch.contains("sampler") || !ch["sampler"].is_number_integer()) fail(cw + ".sampler", "missing or not an index");
+          if (!ch.contains("target") || !ch["target"].is_object()) continue;
+          const json& t = ch["target"];
+          if (t.contains("node") && !t["node"].is_number_integer()) fail(cw + ".target.node", "is not an index");
+          if (!t.contains("path") || !t["path"].is_string()) fail(cw + ".target.path", "missing or not a string");
+        }
+      }
+    if (const json* images = array("images"))
+      for (size_t i = 0; i < images->size(); ++i) {
+        const json& im = (*images)[i];
+        if (!im.is_object() || !im.contains("bufferView")) continue;
+        std::string where = idx("images", int(i)) + ".bufferView";
+        int64_t v = integer(im, "bufferView", -1);
+        check(v, length("bufferViews"), where, "bufferView");
+        const json& view = (*views)[size_t(v)];
+        check(view.is_object() ? integer(view, "buffer", -1) : -1, length("buffers"),
+              idx("bufferViews", int(v)) + ".buffer", "buffer");
+      }
+  }
+  // A uri decoded as tinygltf decodes it (its dlib::urldecode: '+' is a space).
+  static std::string url_decode(const std::string& s) {
+    auto hex = [](char c) {
+      return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : 0;
+    };
+    std::string out;
+    for (size_t i = 0; i < s.size(); ++i) {
+      if (s[i] == '+') {
+        out += ' ';
+      } else if (s[i] == '%' && s.size() > i + 2) {
+        out += char(hex(s[i + 1]) << 4 | hex(s[i + 2]));
+        i += 2;
+      } else {
+        out += s[i];
+      }
+    }
+    return out;
   }
 
   void check_extensions() {
@@ -234,7 +416,10 @@ class Loader {
       for (size_t i; (i = next.fetch_add(1)) < n;) {
         if (i >= m_pending.encoded.size() || m_pending.encoded[i].empty()) {
           const auto& im = m_model.images[i];
-          errors[i] = im.uri.empty() && im.bufferView < 0 ? "has neither a uri nor a bufferView" : "no image data";
+          bool external = !im.uri.empty() && im.uri.rfind("data:", 0) != 0;
+          errors[i] = im.uri.empty() && im.bufferView < 0 ? "has neither a uri nor a bufferView"
+                      : external                          ? "file not found, unreadable or empty"
+                                                          : "no image data";
           continue;
         }
         const auto& bytes = m_pending.encoded[i];
@@ -242,7 +427,17 @@ class Loader {
           errors[i] = "image too large";
           continue;
         }
+        errors[i] = image_format_problem(bytes);
+        if (!errors[i].empty()) continue;
         int len = int(bytes.size()), w = 0, h = 0, c = 0;
+        if (!stbi_info_from_memory(bytes.data(), len, &w, &h, &c)) {
+          errors[i] = std::string("cannot decode: ") + stbi_failure_reason();
+          continue;
+        }
+        if (double(w) * double(h) > double(1 << 28)) {
+          errors[i] = std::to_string(w) + " x " + std::to_string(h) + " pixels is too large (at most 2^28 pixels)";
+          continue;
+        }
         try {
           if (stbi_is_16_bit_from_memory(bytes.data(), len)) {
             stbi_us* px = stbi_load_16_from_memory(bytes.data(), len, &w, &h, &c, 0);
@@ -284,6 +479,32 @@ class Loader {
         m_out.image_bytes += m_images[i]->bytes();
       }
     }
+  }
+
+  // glTF images are PNG or JPEG; stb_image would also guess at BMP, GIF, TGA,
+  // PSD, HDR, PIC and PNM. Checks the signature, and that a PNG's chunks and
+  // a JPEG's end-of-image marker are all there, so stb_image never decodes a
+  // truncated file (it reads past the end as zeros).
+  static std::string image_format_problem(const std::vector<unsigned char>& b) {
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (b.size() >= 8 && std::memcmp(b.data(), png, 8) == 0) {
+      for (size_t at = 8;;) {
+        if (b.size() - at < 12) return "truncated PNG (no IEND chunk)";
+        size_t len = size_t(b[at]) << 24 | size_t(b[at + 1]) << 16 | size_t(b[at + 2]) << 8 | size_t(b[at + 3]);
+        if (len > b.size() - at - 12)
+          return "truncated PNG (the chunk at byte " + std::to_string(at) + " runs past the end)";
+        const unsigned char* type = b.data() + at + 4;
+        if (at == 8 && std::memcmp(type, "IHDR", 4) != 0) return "corrupt PNG (the first chunk is not IHDR)";
+        if (std::memcmp(type, "IEND", 4) == 0) return {};
+        at += 12 + len;
+      }
+    }
+    if (b.size() >= 4 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) {
+      for (size_t k = b.size() - 1; k >= 3; --k)  // EOI, possibly followed by padding
+        if (b[k - 1] == 0xFF && b[k] == 0xD9) return {};
+      return "truncated JPEG (no end-of-image marker)";
+    }
+    return "unsupported image format (glTF images are PNG or JPEG)";
   }
 
   // ---- accessors ----
@@ -385,22 +606,31 @@ class Loader {
         std::find(allowed_types.begin(), allowed_types.end(), acc.componentType) == allowed_types.end())
       fail(where, "componentType " + std::to_string(acc.componentType) + " is not allowed here");
     size_t count = acc.count;
+    if (count == 0) fail(where, "count 0 (an accessor holds at least one element)");
     if (count > (size_t(1) << 31)) fail(where, "count " + std::to_string(count) + " is implausibly large");
-    std::vector<double> out(count * size_t(comps), 0.0);
     size_t elem = size_t(csize) * size_t(comps);
-    if (acc.bufferView >= 0) {
-      ViewBytes vb = view_bytes(acc.bufferView, where);
-      size_t stride = vb.stride ? vb.stride : elem;
-      if (vb.stride && vb.stride < elem) fail(where, "byteStride " + std::to_string(vb.stride) + " is smaller than an element");
-      if (count > 0) {
-        size_t last = acc.byteOffset + stride * (count - 1) + elem;
-        if (acc.byteOffset > vb.size || last > vb.size || last < acc.byteOffset)
-          fail(where, "byteOffset " + std::to_string(acc.byteOffset) + " + " + std::to_string(count) +
-                          " elements runs past the end of " + idx("bufferViews", acc.bufferView) + " (" +
-                          std::to_string(vb.size) + " bytes)");
-      }
+    ViewBytes view;
+    size_t stride = elem;
+    if (acc.bufferView != -1) {  // checked before allocating `out`
+      view = view_bytes(acc.bufferView, where);
+      stride = view.stride ? view.stride : elem;
+      if (view.stride && view.stride < elem)
+        fail(where, "byteStride " + std::to_string(view.stride) + " is smaller than an element");
+      // byteOffset + stride * (count - 1) + elem <= size, without overflow.
+      if (count > 0 && (acc.byteOffset > view.size || elem > view.size - acc.byteOffset ||
+                        (count - 1) > (view.size - acc.byteOffset - elem) / stride))
+        fail(where, "byteOffset " + std::to_string(acc.byteOffset) + " + " + std::to_string(count) +
+                        " elements runs past the end of " + idx("bufferViews", acc.bufferView) + " (" +
+                        std::to_string(view.size) + " bytes)");
+    } else if (count > (size_t(1) << 24)) {
+      // Without a bufferView the elements are zeros (plus sparse ones): no
+      // buffer bounds the count, so cap it before allocating.
+      fail(where, "count " + std::to_string(count) + " is implausibly large for an accessor without a bufferView");
+    }
+    std::vector<double> out(count * size_t(comps), 0.0);
+    if (acc.bufferView != -1) {
       for (size_t i = 0; i < count; ++i) {
-        const unsigned char* p = vb.data + acc.byteOffset + stride * i;
+        const unsigned char* p = view.data + acc.byteOffset + stride * i;
         for (int c = 0; c < comps; ++c)
           out[i * size_t(comps) + size_t(c)] = read_component(p + size_t(c) * size_t(csize), acc.componentType, acc.normalized);
       }
@@ -472,6 +702,7 @@ class Loader {
     if (found != m_mesh_cache.end()) return found->second;
     std::vector<Part> parts;
     const auto& mesh = m_model.meshes[size_t(m)];
+    if (mesh.primitives.empty()) fail(idx("meshes", m) + ".primitives", "is empty (a mesh needs at least one primitive)");
     for (size_t p = 0; p < mesh.primitives.size(); ++p) {
       const auto& prim = mesh.primitives[p];
       std::string where = idx("meshes", m) + ".primitives[" + std::to_string(p) + "]";
@@ -495,14 +726,11 @@ class Loader {
         mesh_id = shared->second;
       } else {
         TriangleMesh tm = build_primitive(prim, where);
-        if (tm.triangle_count() == 0) {
-          warn(where + ": no triangles (skipped)");
-          continue;
-        }
+        if (tm.triangle_count() == 0) fail(where, "has no triangle (too few vertices or indices)");
         mesh_id = m_out.scene.add_mesh(std::move(tm));
         m_prim_cache.emplace(key, mesh_id);
       }
-      if (prim.material >= 0) check_index(prim.material, m_model.materials.size(), where + ".material", "material");
+      if (prim.material != -1) check_index(prim.material, m_model.materials.size(), where + ".material", "material");
       parts.push_back({mesh_id, material(prim.material), prim.material});
     }
     return m_mesh_cache.emplace(m, std::move(parts)).first->second;
@@ -525,7 +753,7 @@ class Loader {
     }
     // Indices (or the implicit 0..n-1), then strips and fans to triangles.
     std::vector<uint32_t> idxs;
-    if (prim.indices >= 0) {
+    if (prim.indices != -1) {
       auto raw = read_accessor(prim.indices, where + ".indices", 1,
                                {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                                 TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
@@ -570,11 +798,11 @@ class Loader {
     });
     optional_attr("TEXCOORD_0", 2, [&](const std::vector<double>& v) {
       tm.uvs.resize(nv);
-      for (size_t i = 0; i < nv; ++i) tm.uvs[i] = Point2f(Float(v[2 * i]), Float(v[2 * i + 1]));
+      for (size_t i = 0; i < nv; ++i) tm.uvs[i] = Point2f{Float(v[2 * i]), Float(v[2 * i + 1])};
     });
     optional_attr("TEXCOORD_1", 2, [&](const std::vector<double>& v) {
       tm.uvs1.resize(nv);
-      for (size_t i = 0; i < nv; ++i) tm.uvs1[i] = Point2f(Float(v[2 * i]), Float(v[2 * i + 1]));
+      for (size_t i = 0; i < nv; ++i) tm.uvs1[i] = Point2f{Float(v[2 * i]), Float(v[2 * i + 1])};
     });
     optional_attr("TANGENT", 4, [&](const std::vector<double>& v) {
       tm.tangents.resize(nv);
@@ -637,12 +865,12 @@ class Loader {
   }
 
   std::optional<ImageTexture> texture(const TexRef& r, bool srgb, const std::string& where) {
-    if (r.index < 0 && !r.json) return std::nullopt;
+    if (r.index == -1 && !r.json) return std::nullopt;  // -1: tinygltf's "absent"
     check_index(r.index, m_model.textures.size(), where + ".index", "texture");
     const auto& tex = m_model.textures[size_t(r.index)];
     std::string tw = idx("textures", r.index);
     int source = tex.source;
-    if (source < 0) {
+    if (source == -1) {
       warn(tw + ": no source image (extensions such as KHR_texture_basisu are not supported): texture ignored");
       return std::nullopt;
     }
@@ -662,7 +890,7 @@ class Loader {
       warn(where + ": texCoord " + std::to_string(t.texcoord) + " is not supported (TEXCOORD_0 used)");
       t.texcoord = 0;
     }
-    if (tex.sampler >= 0) {
+    if (tex.sampler != -1) {
       check_index(tex.sampler, m_model.samplers.size(), tw + ".sampler", "sampler");
       const auto& s = m_model.samplers[size_t(tex.sampler)];
       auto wrap = [&](int w, const char* which) {
@@ -691,7 +919,7 @@ class Loader {
         const auto& x = tt->Get(key);
         if (!x.IsArray() || x.ArrayLen() != 2 || !x.Get(0).IsNumber() || !x.Get(1).IsNumber())
           fail(where + ".extensions.KHR_texture_transform." + key, "must be an array of two numbers");
-        return Point2f(Float(x.Get(0).GetNumberAsDouble()), Float(x.Get(1).GetNumberAsDouble()));
+        return Point2f{Float(x.Get(0).GetNumberAsDouble()), Float(x.Get(1).GetNumberAsDouble())};
       };
       t.transform.offset = vec2("offset", {0, 0});
       t.transform.scale = vec2("scale", {1, 1});
@@ -805,6 +1033,7 @@ class Loader {
     int sampler;
     const tinygltf::Animation* anim;
     std::string path;
+    int anim_index;
   };
   void prepare_animation() {
     for (size_t a = 0; a < m_model.animations.size(); ++a) {
@@ -816,14 +1045,14 @@ class Loader {
         check_index(ch.target_node, m_model.nodes.size(), where + ".target.node", "node");
         check_index(ch.sampler, an.samplers.size(), where + ".sampler", "sampler");
         if (ch.target_path == "translation" || ch.target_path == "rotation" || ch.target_path == "scale")
-          m_channels[ch.target_node].push_back({ch.sampler, &an, ch.target_path});
+          m_channels[ch.target_node].push_back({ch.sampler, &an, ch.target_path, int(a)});
       }
     }
   }
   // The animated value of a channel at the options' time.
   std::vector<double> sample_channel(const Channel& ch, int comps) const {
     const auto& s = ch.anim->samplers[size_t(ch.sampler)];
-    std::string where = "animations sampler " + std::to_string(ch.sampler);
+    std::string where = idx("animations", ch.anim_index) + ".samplers[" + std::to_string(ch.sampler) + "]";
     auto times = read_accessor(s.input, where + ".input", 1);
     auto values = read_accessor(s.output, where + ".output", comps);
     bool cubic = s.interpolation == "CUBICSPLINE";
@@ -914,11 +1143,11 @@ class Loader {
     on_path[size_t(n)] = 1;
     const auto& node = m_model.nodes[size_t(n)];
     Mat4d world = mul(parent, local_matrix(n));
-    if (node.mesh >= 0) {
+    if (node.mesh != -1) {
       check_index(node.mesh, m_model.meshes.size(), where + ".mesh", "mesh");
       place_mesh(n, node, world);
     }
-    if (node.camera >= 0) {
+    if (node.camera != -1) {
       check_index(node.camera, m_model.cameras.size(), where + ".camera", "camera");
       place_camera(node.camera, world);
     }
@@ -1082,7 +1311,15 @@ class Loader {
 // environment), set options, then call scene.build(). Throws prism::Error.
 template <class S, class Set = gltf_bxdf_set<S>>
 GltfScene<S, Set> load_gltf(const std::string& path, const GltfOptions& opt = {}) {
-  return gltf_detail::Loader<S, Set>(path, opt).load();
+  try {
+    return gltf_detail::Loader<S, Set>(path, opt).load();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw Error(path + ": out of memory while loading");
+  } catch (const std::exception& e) {  // a loader bug, but still an error about this file
+    throw Error(path + ": internal error while loading: " + e.what());
+  }
 }
 
 }  // namespace prism
