@@ -177,18 +177,8 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
                               PerspectiveCamera(c.camera_to_world, c.yfov, job.width, job.height, job.aperture,
                                                 job.focus_distance));
     }
-    // No camera: look at the bounds' centre from +z (glTF's front), framing
-    // the bounding sphere with a 40 degree vertical field of view.
-    Bounds3f b = g.bounds.empty() ? Bounds3f(Point3f(0, 0, 0)) : g.bounds;
-    Point3f c = b.min + (b.max - b.min) * Float(0.5);
-    Float r = std::max(length(b.max - b.min) / 2, Float(1e-3));
-    Float fov = Float(40) * pi / 180;
-    Float aspect = Float(job.width) / Float(job.height);
-    Float half = std::min(fov / 2, std::atan(std::tan(fov / 2) * aspect));
-    Float dist = r / std::sin(half) * Float(1.05);
-    Transform to_world = look_at_camera_to_world(c + Vector3f(0, 0, dist), c, Vector3f(0, 1, 0));
     return render_and_write(job, model, g.scene,
-                            PerspectiveCamera(to_world, fov, job.width, job.height, job.aperture, job.focus_distance));
+                            gltf_framing_camera(g.bounds, job.width, job.height, job.aperture, job.focus_distance));
   } catch (const Error& e) {
     return fail(e.what());
   }

@@ -54,16 +54,6 @@ const ModelCase models[] = {
     {"AttenuationTest/glTF-Binary/AttenuationTest.glb", 232, 292},
 };
 
-// The camera prism-render uses without one in the file: the bounding sphere
-// seen from +z.
-PerspectiveCamera framing_camera(const Bounds3f& b, int w, int h) {
-  Point3f c = b.min + (b.max - b.min) * Float(0.5);
-  Float r = std::max(length(b.max - b.min) / 2, Float(1e-3));
-  Float fov = Float(40) * pi / 180;
-  Float dist = r / std::sin(fov / 2) * Float(1.05);
-  return PerspectiveCamera(look_at_camera_to_world(c + Vector3f(0, 0, dist), c, Vector3f(0, 1, 0)), fov, w, h);
-}
-
 // World bounds of instance i.
 Bounds3f instance_bounds(const SceneAccel& accel, size_t i) {
   const Instance& in = accel.instances()[i];
@@ -94,7 +84,7 @@ TEST_CASE("every shared model loads with its README triangle counts and renders 
     RenderOptions opt;
     opt.spp = 4;
     opt.seed = 7;
-    RenderStats st = render(g.scene, framing_camera(g.bounds, 64, 64), PathIntegrator(), film, opt);
+    RenderStats st = render(g.scene, gltf_framing_camera(g.bounds, 64, 64), PathIntegrator(), film, opt);
     CHECK(st.dropped == 0);
     CHECK(st.samples == uint64_t(64 * 64 * 4));
     double sum = 0;

@@ -123,6 +123,7 @@ struct Instance {
   uint32_t geometry = 0;      // mesh or sphere index
   Transform object_to_world;  // meshes only; spheres live in world space
   bool identity = true;
+  bool mirror = false;  // object_to_world swaps handedness (cached: asked per hit)
 };
 
 struct Hit {
@@ -138,12 +139,13 @@ class SceneAccel {
     return uint32_t(m_meshes.size() - 1);
   }
   uint32_t add_mesh_instance(uint32_t mesh, const Transform& object_to_world = {}) {
-    m_instances.push_back({Instance::Kind::mesh, mesh, object_to_world, object_to_world.is_identity()});
+    m_instances.push_back({Instance::Kind::mesh, mesh, object_to_world, object_to_world.is_identity(),
+                           object_to_world.swaps_handedness()});
     return uint32_t(m_instances.size() - 1);
   }
   uint32_t add_sphere(const Sphere& s) {
     m_spheres.push_back(s);
-    m_instances.push_back({Instance::Kind::sphere, uint32_t(m_spheres.size() - 1), {}, true});
+    m_instances.push_back({Instance::Kind::sphere, uint32_t(m_spheres.size() - 1), {}, true, false});
     return uint32_t(m_instances.size() - 1);
   }
 
@@ -257,7 +259,7 @@ class SceneAccel {
       si.dpdv = t(si.dpdv);
       si.tangent = t(si.tangent);
       // A mirroring transform flips the bitangent's handedness.
-      if (t.swaps_handedness()) si.tangent_w = -si.tangent_w;
+      if (in.mirror) si.tangent_w = -si.tangent_w;
     }
     return si;
   }

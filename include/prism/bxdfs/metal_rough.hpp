@@ -396,16 +396,17 @@ struct MetalRoughParams {
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
 inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
+// The numbers of a MetalRoughMaterial at a hit, before clamping.
+struct MetalRoughFactors {
+  RGB base_color;
+  Float metallic, roughness, ior, specular;
+  RGB specular_color;
+  Float transmission;
+};
 // The material's values at a hit: factors times textures times vertex colour.
-inline MetalRoughMaterial textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
-  MetalRoughMaterial v;
-  v.base_color = m.base_color * si.color;
-  v.metallic = m.metallic;
-  v.roughness = m.roughness;
-  v.ior = m.ior;
-  v.specular = m.specular;
-  v.specular_color = m.specular_color;
-  v.transmission = m.transmission;
+inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+  MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,   m.ior,
+                      m.specular,              m.specular_color, m.transmission};
   if (const MetalRoughTextures* t = m.textures.get()) {
     if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
     if (t->metallic_roughness) {
@@ -428,7 +429,9 @@ inline Float metal_rough_opacity(const MetalRoughMaterial& m, const SurfaceInter
   if (m.alpha_mode == AlphaMode::mask) return a >= m.alpha_cutoff ? Float(1) : Float(0);
   return std::clamp(a, Float(0), Float(1));
 }
-inline MetalRoughParams clamp_metal_rough(const MetalRoughMaterial& m, std::string* clamped = nullptr) {
+// M: MetalRoughMaterial or MetalRoughFactors (the same field names).
+template <class M>
+MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   MetalRoughParams p;
   auto note = [&](const char* what, Float from, Float to) {
     if (!clamped || from == to || std::isnan(from)) return;
@@ -475,8 +478,9 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   // above its RGB channels): energy is conserved at every wavelength.
   template <class W>
   static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction& si, const W& lambda) {
-    detail::MetalRoughParams p = detail::clamp_metal_rough(
-        (m.textures || si.color != RGB(1)) ? detail::textured(m, si) : m);
+    // Untextured materials are clamped in place (no copy per hit).
+    detail::MetalRoughParams p = (m.textures || si.color != RGB(1)) ? detail::clamp_metal_rough(detail::textured(m, si))
+                                                                    : detail::clamp_metal_rough(m);
     S base = spectrum_traits<S>::albedo(p.base, lambda);
     S f0 = spectrum_traits<S>::albedo(p.dielectric_f0, lambda);
     Float f0_max = std::min(std::max(p.dielectric_f0.max_component(), f0.max_component()), Float(1));

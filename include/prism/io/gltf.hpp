@@ -1307,6 +1307,22 @@ class Loader {
 
 }  // namespace gltf_detail
 
+// The camera for a scene without one: the bounds' centre seen from +z
+// (glTF's front), the bounding sphere framed with a 40 degree vertical field
+// of view (narrower horizontally for portrait images).
+inline PerspectiveCamera gltf_framing_camera(const Bounds3f& bounds, int width, int height, Float lens_radius = 0,
+                                             Float focus_distance = 1) {
+  Bounds3f b = bounds.empty() ? Bounds3f(Point3f(0, 0, 0)) : bounds;
+  Point3f c = b.min + (b.max - b.min) * Float(0.5);
+  Float r = std::max(length(b.max - b.min) / 2, Float(1e-3));
+  Float fov = Float(40) * pi / 180;
+  Float aspect = Float(width) / Float(height);
+  Float half = std::min(fov / 2, std::atan(std::tan(fov / 2) * aspect));
+  Float dist = r / std::sin(half) * Float(1.05);
+  Transform to_world = look_at_camera_to_world(c + Vector3f(0, 0, dist), c, Vector3f(0, 1, 0));
+  return PerspectiveCamera(to_world, fov, width, height, lens_radius, focus_distance);
+}
+
 // Loads a .gltf or .glb file. The scene is not built: add lights (an
 // environment), set options, then call scene.build(). Throws prism::Error.
 template <class S, class Set = gltf_bxdf_set<S>>

@@ -118,7 +118,7 @@ class Scene {
       const TriangleMesh& mesh = meshes[in.geometry];
       // A mirroring transform reverses the winding (glTF: the front face is
       // the one the object-space winding names, whatever the determinant).
-      bool mirror = in.object_to_world.swaps_handedness();
+      bool mirror = in.mirror;
       std::optional<RGB> texture_mean;
       if (info.emission->texture) texture_mean = info.emission->texture->average();
       for (size_t t = 0; t < mesh.triangle_count(); ++t) {
