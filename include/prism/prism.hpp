@@ -7,6 +7,7 @@
 #include "prism/math/frame.hpp"
 #include "prism/math/bounds.hpp"
 #include "prism/math/transform.hpp"
+#include "prism/math/animated_transform.hpp"
 #include "prism/spectra/rgb.hpp"
 #include "prism/spectra/sampled.hpp"
 #include "prism/spectra/spectrum.hpp"

@@ -17,15 +17,14 @@
 #include "prism/sampling/pcg32.hpp"
 #include "prism/sampling/warps.hpp"
 
+#include "support/random.hpp"
+
 using namespace prism;
 
 namespace {
 
-Float uniform(PCG32& rng, Float a, Float b) { return a + (b - a) * rng.next_float(); }
-Vector3f random_unit(PCG32& rng) {
-  Float a = rng.next_float();
-  return sample_uniform_sphere({a, rng.next_float()});
-}
+using test::random_unit;
+using test::uniform;
 
 struct Soup {
   std::vector<Point3f> v;  // 3 per triangle

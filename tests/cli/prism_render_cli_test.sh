@@ -30,6 +30,9 @@ expect_error --sampler nope
 expect_error --aperture -1
 expect_error --focus-distance 0
 expect_error --tonemap nope
+expect_error --shutter -1
+expect_error --shutter nan
+expect_error --time inf --shutter 1
 # glTF scenes: a one-triangle file written here, and broken ones.
 tri="$tmp/tri.gltf"
 cat > "$tri" <<'JSON'
@@ -75,6 +78,18 @@ for args in "" "--rgb" "--spectral"; do
   out=$("$bin" --width 8 --height 8 --spp 1 --quiet $args --out "$tmp/model.png" 2>/dev/null)
   printf '%s\n' "$out" | grep -q ", $want, " || { echo "FAIL: '$args' did not render $want: $out"; fails=$((fails+1)); }
 done
+
+# Motion blur: the default scene's box moves while the shutter is open; the
+# summary says so, and a closed shutter renders the still scene bit for bit.
+out=$("$bin" --width 16 --height 16 --spp 2 --rgb --quiet --shutter 1 --out "$tmp/blur.pfm" 2>/dev/null); rc=$?
+if [ "$rc" != 0 ] || ! printf '%s
+' "$out" | grep -q 'shutter \[0, 1\]'; then
+  echo "FAIL: --shutter 1 did not render with motion blur ($rc): $out"; fails=$((fails+1))
+else echo "ok: --shutter 1: $out"; fi
+"$bin" --width 16 --height 16 --spp 2 --rgb --quiet --out "$tmp/still_a.pfm" >/dev/null 2>&1
+"$bin" --width 16 --height 16 --spp 2 --rgb --quiet --shutter 0 --out "$tmp/still_b.pfm" >/dev/null 2>&1
+cmp -s "$tmp/still_a.pfm" "$tmp/still_b.pfm" || { echo "FAIL: --shutter 0 differs from no shutter"; fails=$((fails+1)); }
+cmp -s "$tmp/still_a.pfm" "$tmp/blur.pfm" && { echo "FAIL: --shutter 1 rendered the still image"; fails=$((fails+1)); }
 
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

@@ -75,6 +75,9 @@ struct BVHBuildOptions {
   Float traversal_cost = 1.0f;
   // Threads for the build; 0 = all hardware threads. The tree does not depend on it.
   int threads = 0;
+  // Scenes with moving instances: top-level trees over the motion's time
+  // range (scene_accel.hpp); 0 = SceneAccel::kDefaultMotionSegments.
+  int motion_segments = 0;
 };
 
 // Per-ray data for box tests.

@@ -23,6 +23,8 @@ class OrthographicCamera {
   int width() const { return m_width; }
   int height() const { return m_height; }
   const Transform& camera_to_world() const { return m_to_world; }
+  const Shutter& shutter() const { return m_shutter; }
+  void set_shutter(const Shutter& s) { m_shutter = Shutter::checked(s.open, s.close); }
 
   Ray generate_ray(const CameraSample& s) const {
     Float x = (2 * s.p_film.x / Float(m_width) - 1) * m_half_w;
@@ -47,6 +49,7 @@ class OrthographicCamera {
   Transform m_to_world;
   int m_width = 1, m_height = 1;
   Float m_half_w = 1, m_half_h = 1;
+  Shutter m_shutter;
 };
 
 }  // namespace prism

@@ -3,6 +3,8 @@
 // down, in pixels. fov_y is the vertical field of view (as glTF's yfov).
 #pragma once
 #include <optional>
+#include <string>
+#include "prism/error.hpp"
 #include "prism/geometry/ray.hpp"
 #include "prism/math/transform.hpp"
 #include "prism/sampling/warps.hpp"
@@ -29,6 +31,22 @@ struct CameraSample {
   Float time = 0;
 };
 
+// The interval during which a camera's shutter is open. Rays get a time
+// drawn uniformly in [open, close); an empty interval (the default) gives
+// every ray the time `open` and costs no sample dimension.
+struct Shutter {
+  Float open = 0, close = 0;
+  bool is_open_interval() const { return close > open; }
+  Float time(Float u) const { return open + u * (close - open); }
+  // Throws prism::Error unless both ends are finite and open <= close.
+  static Shutter checked(Float open, Float close) {
+    if (!std::isfinite(open) || !std::isfinite(close) || close < open)
+      throw Error("camera: the shutter interval [" + std::to_string(open) + ", " + std::to_string(close) +
+                  "] must be finite with open <= close");
+    return {open, close};
+  }
+};
+
 class PerspectiveCamera {
  public:
   PerspectiveCamera() = default;
@@ -36,6 +54,12 @@ class PerspectiveCamera {
                     Float lens_radius = 0, Float focal_distance = 1)
       : m_to_world(camera_to_world), m_width(width), m_height(height), m_lens_radius(lens_radius),
         m_focal_distance(focal_distance) {
+    if (!(lens_radius >= 0) || !std::isfinite(lens_radius))
+      throw Error("camera: the aperture radius must be zero or positive and finite, got " + std::to_string(lens_radius));
+    if (lens_radius > 0 && (!(focal_distance > 0) || !std::isfinite(focal_distance)))
+      throw Error("camera: the focus distance must be positive and finite, got " + std::to_string(focal_distance));
+    if (!(fov_y_radians > 0 && fov_y_radians < Float(3.14159265)))
+      throw Error("camera: the vertical field of view must be in (0, pi) radians, got " + std::to_string(fov_y_radians));
     m_tan_half = std::tan(fov_y_radians / 2);
     m_aspect = Float(width) / Float(height);
   }
@@ -45,6 +69,8 @@ class PerspectiveCamera {
   const Transform& camera_to_world() const { return m_to_world; }
   Float lens_radius() const { return m_lens_radius; }
   Float focal_distance() const { return m_focal_distance; }
+  const Shutter& shutter() const { return m_shutter; }
+  void set_shutter(const Shutter& s) { m_shutter = Shutter::checked(s.open, s.close); }
 
   // A ray through the film position with a unit direction.
   Ray generate_ray(const CameraSample& s) const {
@@ -99,6 +125,7 @@ class PerspectiveCamera {
   int m_width = 1, m_height = 1;
   Float m_tan_half = 1, m_aspect = 1;
   Float m_lens_radius = 0, m_focal_distance = 1;
+  Shutter m_shutter;
 };
 
 }  // namespace prism

@@ -207,6 +207,12 @@ class PathIntegrator {
     auto sl = scene.area_light_sampler().sample(sampler.get_1d());
     Point2f u_pos = sampler.get_2d(), u_dir = sampler.get_2d();
     Float u_side = sampler.get_1d();
+    // The path's time, when the camera's shutter is open for an interval.
+    Float time = 0;
+    if constexpr (requires { camera.shutter(); }) {
+      const auto& sh = camera.shutter();
+      time = sh.is_open_interval() ? sh.time(sampler.get_1d()) : sh.open;
+    }
     if (!sl) return;
     auto le = std::visit(
         [&](const auto& l) -> std::optional<LightLeSample<S>> {
@@ -219,6 +225,7 @@ class PathIntegrator {
     if (!le || le->L.is_black()) return;
     S beta = le->L * (abs_dot(le->n, le->ray.d) / (sl->pmf * le->pdf_pos * le->pdf_dir));
     Ray ray = le->ray;
+    ray.time = time;
     std::optional<S> sigma_a;
     for (int specular = 0; specular < m_opt.max_depth; ++specular) {
       ++counter.rays;

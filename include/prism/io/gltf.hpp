@@ -38,6 +38,12 @@ namespace prism {
 struct GltfOptions {
   int scene = -1;   // the glTF scene to load; -1: the file's default (else scene 0)
   double time = 0;  // animations are sampled at this time (seconds)
+  // Motion blur: a shutter open from `time` to `time + shutter` seconds. A
+  // mesh node that the animations move in that interval becomes a moving
+  // instance with the node's world transforms at both ends as its keys
+  // (AnimatedTransform: linear translation and stretch, slerp rotation).
+  // Cameras and punctual lights stay where they are at `time`.
+  double shutter = 0;
 };
 
 // A camera of the file, placed by its node. camera_to_world maps prism's
@@ -65,6 +71,7 @@ struct GltfScene {
   size_t scene_triangles = 0;    // summed over every instance in the scene
   size_t punctual_lights = 0;    // KHR_lights_punctual lights placed
   size_t emissive_instances = 0;
+  size_t moving_instances = 0;   // instances that move during the shutter (GltfOptions::shutter)
   size_t images = 0, image_bytes = 0;
   bool has_lights() const { return punctual_lights + emissive_instances > 0; }
 };
@@ -183,7 +190,7 @@ class Loader {
     for (size_t i = 0; i < sc.nodes.size(); ++i) {
       int n = sc.nodes[i];
       check_index(n, m_model.nodes.size(), idx("scenes", scene) + ".nodes[" + std::to_string(i) + "]", "node");
-      visit(n, identity(), on_path, 0);
+      visit(n, identity(), identity(), on_path, 0);
     }
     return std::move(m_out);
   }
@@ -1049,8 +1056,8 @@ class Loader {
       }
     }
   }
-  // The animated value of a channel at the options' time.
-  std::vector<double> sample_channel(const Channel& ch, int comps) const {
+  // The animated value of a channel at time t.
+  std::vector<double> sample_channel(const Channel& ch, int comps, double t) const {
     const auto& s = ch.anim->samplers[size_t(ch.sampler)];
     std::string where = idx("animations", ch.anim_index) + ".samplers[" + std::to_string(ch.sampler) + "]";
     auto times = read_accessor(s.input, where + ".input", 1);
@@ -1063,7 +1070,6 @@ class Loader {
       size_t base = (k * per_key + (cubic ? 1 : 0)) * size_t(comps);
       return std::vector<double>(values.begin() + long(base), values.begin() + long(base) + comps);
     };
-    double t = m_opt.time;
     if (t <= times.front()) return value(0);
     if (t >= times.back()) return value(times.size() - 1);
     size_t k = size_t(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
@@ -1102,7 +1108,7 @@ class Loader {
     return r;
   }
 
-  Mat4d local_matrix(int n) const {
+  Mat4d local_matrix(int n, double time) const {
     const auto& node = m_model.nodes[size_t(n)];
     std::string where = idx("nodes", n);
     auto it = m_channels.find(n);
@@ -1129,23 +1135,28 @@ class Loader {
     copy(node.scale, s, "scale");
     if (it != m_channels.end())
       for (const Channel& ch : it->second) {
-        if (ch.path == "translation") copy(sample_channel(ch, 3), t, "translation (animated)");
-        else if (ch.path == "rotation") copy(sample_channel(ch, 4), q, "rotation (animated)");
-        else copy(sample_channel(ch, 3), s, "scale (animated)");
+        if (ch.path == "translation") copy(sample_channel(ch, 3, time), t, "translation (animated)");
+        else if (ch.path == "rotation") copy(sample_channel(ch, 4, time), q, "rotation (animated)");
+        else copy(sample_channel(ch, 3, time), s, "scale (animated)");
       }
     return trs(t, q, s);
   }
 
-  void visit(int n, const Mat4d& parent, std::vector<uint8_t>& on_path, int depth) {
+  // parent and parent_end: the parent's world transform when the shutter
+  // opens and when it closes (the same without motion blur).
+  void visit(int n, const Mat4d& parent, const Mat4d& parent_end, std::vector<uint8_t>& on_path, int depth) {
     std::string where = idx("nodes", n);
     if (on_path[size_t(n)]) fail(where, "is its own ancestor (the node hierarchy has a cycle)");
     if (depth > 4096) fail(where, "the node hierarchy is deeper than 4096 levels");
     on_path[size_t(n)] = 1;
     const auto& node = m_model.nodes[size_t(n)];
-    Mat4d world = mul(parent, local_matrix(n));
+    Mat4d world = mul(parent, local_matrix(n, m_opt.time));
+    Mat4d world_end = m_opt.shutter > 0 && !m_channels.empty()
+                          ? mul(parent_end, local_matrix(n, m_opt.time + m_opt.shutter))
+                          : world;
     if (node.mesh != -1) {
       check_index(node.mesh, m_model.meshes.size(), where + ".mesh", "mesh");
-      place_mesh(n, node, world);
+      place_mesh(n, node, world, world_end);
     }
     if (node.camera != -1) {
       check_index(node.camera, m_model.cameras.size(), where + ".camera", "camera");
@@ -1159,13 +1170,13 @@ class Loader {
     for (size_t c = 0; c < node.children.size(); ++c) {
       int child = node.children[c];
       check_index(child, m_model.nodes.size(), where + ".children[" + std::to_string(c) + "]", "node");
-      visit(child, world, on_path, depth + 1);
+      visit(child, world, world_end, on_path, depth + 1);
     }
     on_path[size_t(n)] = 0;
   }
 
-  void place_mesh(int n, const tinygltf::Node& node, const Mat4d& world) {
-    std::vector<Mat4d> transforms;
+  void place_mesh(int n, const tinygltf::Node& node, const Mat4d& world, const Mat4d& world_end) {
+    std::vector<Mat4d> transforms, transforms_end;
     if (const auto* e = ext(node.extensions, "EXT_mesh_gpu_instancing")) {
       std::string ew = idx("nodes", n) + ".extensions.EXT_mesh_gpu_instancing.attributes";
       const tinygltf::Value* attrs = e->Has("attributes") ? &e->Get("attributes") : nullptr;
@@ -1190,22 +1201,56 @@ class Loader {
         if (!r.empty()) qi = {r[4 * i], r[4 * i + 1], r[4 * i + 2], r[4 * i + 3]};
         if (!s.empty()) si = {s[3 * i], s[3 * i + 1], s[3 * i + 2]};
         transforms.push_back(mul(world, trs(ti, qi, si)));
+        transforms_end.push_back(mul(world_end, trs(ti, qi, si)));
       }
-      if (!have) transforms.push_back(world);
+      if (!have) {
+        transforms.push_back(world);
+        transforms_end.push_back(world_end);
+      }
     } else {
       transforms.push_back(world);
+      transforms_end.push_back(world_end);
     }
     const auto& parts = mesh_parts(node.mesh);
-    for (const Mat4d& m : transforms) {
+    for (size_t i = 0; i < transforms.size(); ++i) {
+      const Mat4d& m = transforms[i];
       for (double v : m)
         if (!std::isfinite(v)) fail(idx("nodes", n), "world transform is not finite");
+      for (double v : transforms_end[i])
+        if (!std::isfinite(v)) fail(idx("nodes", n), "world transform at the shutter's close is not finite");
       Transform xf = to_transform(m);
       if (!xf.invertible()) {
         warn(idx("nodes", n) + ": singular transform (zero scale): instance skipped");
         continue;
       }
+      std::optional<AnimatedTransform> motion;
+      if (transforms_end[i] != m) {
+        Transform xf_end = to_transform(transforms_end[i]);
+        if (!xf_end.invertible()) {
+          warn(idx("nodes", n) + ": singular transform at the shutter's close: motion blur ignored");
+        } else {
+          try {
+            motion = AnimatedTransform(TransformKey::decompose(xf), TransformKey::decompose(xf_end), Float(m_opt.time),
+                                       Float(m_opt.time + m_opt.shutter), "motion");
+          } catch (const Error& e) {
+            fail(idx("nodes", n), e.what());
+          }
+        }
+      }
       for (const Part& p : parts) {
         auto em = emission(p.gltf_material);
+        if (motion && !em) {
+          m_out.scene.add_instance(p.mesh, p.material, *motion);
+          m_out.bounds = union_bounds(m_out.bounds, motion->motion_bounds(mesh_bounds(p.mesh), motion->start_time(),
+                                                                          motion->end_time()));
+          ++m_out.moving_instances;
+          continue;
+        }
+        if (motion && em && !m_warned_moving_emitter) {
+          warn(idx("nodes", n) + ": an emissive mesh moves during the shutter; area lights stay still: drawn where "
+                                 "it is when the shutter opens");
+          m_warned_moving_emitter = true;
+        }
         m_out.scene.add_instance(p.mesh, p.material, xf, em);
         if (em) ++m_out.emissive_instances;
         m_out.bounds = union_bounds(m_out.bounds, xf(mesh_bounds(p.mesh)));
@@ -1290,6 +1335,7 @@ class Loader {
 
   std::string m_path;
   GltfOptions m_opt;
+  bool m_warned_moving_emitter = false;
   tinygltf::Model m_model;
   PendingImages m_pending;
   std::vector<std::shared_ptr<const TextureImage>> m_images;
@@ -1327,6 +1373,9 @@ inline PerspectiveCamera gltf_framing_camera(const Bounds3f& bounds, int width, 
 // environment), set options, then call scene.build(). Throws prism::Error.
 template <class S, class Set = gltf_bxdf_set<S>>
 GltfScene<S, Set> load_gltf(const std::string& path, const GltfOptions& opt = {}) {
+  if (!std::isfinite(opt.time)) throw Error(path + ": the animation time must be finite");
+  if (!(opt.shutter >= 0) || !std::isfinite(opt.shutter))
+    throw Error(path + ": the shutter interval must be finite and non-negative, got " + std::to_string(opt.shutter));
   try {
     return gltf_detail::Loader<S, Set>(path, opt).load();
   } catch (const Error&) {

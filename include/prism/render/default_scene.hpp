@@ -59,6 +59,10 @@ struct CornellBoxOptions {
   Float lens_x = -0.62f, lens_radius = 0.3f, prism_turn = -33;
   bool gold_sphere = true;  // false: the sphere is white and diffuse, and no frosted sphere
   Float gold_alpha = 0.2f;  // GGX alpha of the gold sphere
+  // Motion blur: the tall box slides 0.3 towards the centre and turns a
+  // further 30 degrees between times 0 and 1 (at time 0 it stands where it
+  // does without motion). Off by default: a still box costs no motion work.
+  bool box_motion = false;
 };
 
 // A right prism whose cross-section is the triangle a, b, c in the xz-plane,
@@ -172,7 +176,13 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
 
   // A tall box, rotated about y, standing on the floor at the back left.
   uint32_t box = scene.add_mesh(make_box({-0.3f, -1, -0.3f}, {0.3f, 0.2f, 0.3f}));
-  scene.add_instance(box, white, translate({-0.35f, 0, -0.3f}) * rotate(radians(18), {0, 1, 0}));
+  if (opt.box_motion) {
+    TransformKey k0 = TransformKey::trs({-0.35f, 0, -0.3f}, Quaternion::from_axis_angle({0, 1, 0}, radians(18)));
+    TransformKey k1 = TransformKey::trs({-0.05f, 0, -0.3f}, Quaternion::from_axis_angle({0, 1, 0}, radians(48)));
+    scene.add_instance(box, white, AnimatedTransform(k0, k1, 0, 1, "default scene: box motion"));
+  } else {
+    scene.add_instance(box, white, translate({-0.35f, 0, -0.3f}) * rotate(radians(18), {0, 1, 0}));
+  }
   // A rough gold sphere (measured eta and k) on the floor at the front right.
   uint32_t sphere_m = opt.gold_sphere ? scene.add_material(ConductorMaterial::metal(
                                             "Au", MicrofacetRoughness(opt.gold_alpha), "rough gold"))

@@ -56,6 +56,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   auto start = std::chrono::steady_clock::now();
   film.prepare(traits::film_xyz ? FilmEncoding::xyz : FilmEncoding::rgb);
   const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
+  Shutter shutter;
+  if constexpr (requires { camera.shutter(); }) shutter = camera.shutter();
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, tiles = tiles_x * tiles_y;
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min(threads, tiles));
@@ -97,12 +99,14 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
         for (int x = x0; x < x1; ++x)
           for (int s = 0; s < opt.spp; ++s) {
             sampler.start_pixel_sample(x, y, s);
-            // Fixed dimension order: wavelengths, filter, lens, then the integrator's.
+            // Fixed dimension order: wavelengths, filter, lens, time (only
+            // when the shutter is open for an interval), then the integrator's.
             auto lambda = traits::sample_wavelengths(sampler.get_1d());
             FilterSample fs = filter.sample(sampler.get_2d());
             CameraSample cs;
             cs.p_film = {Float(x) + 0.5f + fs.offset.x, Float(y) + 0.5f + fs.offset.y};
             cs.p_lens = sampler.get_2d();
+            cs.time = shutter.is_open_interval() ? shutter.time(sampler.get_1d()) : shutter.open;
             Ray ray = camera.generate_ray(cs);
             S L = integrator.Li(scene, ray, lambda, sampler, counter);
             RGB v = traits::to_film(L, lambda);  // linear sRGB, or XYZ in spectral mode

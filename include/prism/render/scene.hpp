@@ -58,6 +58,13 @@ class Scene {
     m_info.push_back({int32_t(material), -1, emission});
     return id;
   }
+  // An instance that moves during the shutter (motion blur): object_to_world
+  // is motion.at(ray time). It does not emit: area lights stay still.
+  uint32_t add_instance(uint32_t mesh, uint32_t material, const AnimatedTransform& motion) {
+    uint32_t id = m_accel.add_mesh_instance(mesh, motion);
+    m_info.push_back({int32_t(material), -1, std::nullopt});
+    return id;
+  }
   // Convenience: a mesh used once.
   uint32_t add_mesh_instance(TriangleMesh mesh, uint32_t material, std::optional<AreaEmission> emission = std::nullopt) {
     return add_instance(add_mesh(std::move(mesh)), material, {}, emission);
