@@ -83,6 +83,7 @@ struct Job {
   double shutter = 0;  // seconds the shutter stays open from `time` (motion blur)
   std::string env;
   float env_scale = 1;
+  bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
 };
 
 // Renders scene through camera and writes the outputs.
@@ -106,6 +107,11 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
                 : job.sampler == "stratified" ? SamplerKind::stratified
                                               : SamplerKind::independent;
   opt.progress = [&](int done, int total) { bar.update(done, total); };
+  AovFilm aov_film;
+  if (job.aovs) {
+    aov_film = AovFilm(job.width, job.height);
+    opt.aovs = &aov_film;
+  }
   PathOptions popt;
   popt.max_depth = job.max_depth;
   auto go = [&](const auto& pixel_filter) {
@@ -117,7 +123,8 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   PngOptions png{std::exp2(job.exposure_ev), job.tone_map == "neutral" ? ToneMap::neutral : ToneMap::clamp};
   for (const auto& o : job.outputs) {
     try {
-      write_image(o, img, png);
+      if (job.aovs && lowercase_extension(o) == ".exr") write_exr_with_aovs(o, film, aov_film);
+      else write_image(o, img, png);
     } catch (const Error& e) {
       return fail(e.what());
     }
@@ -265,6 +272,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"clamp", "neutral"}));
   app.add_option("--aperture", job.aperture, "Thin-lens aperture radius in scene units (0: pinhole)");
   app.add_option("--focus-distance", job.focus_distance, "Distance of the plane in focus");
+  app.add_flag("--aov", job.aovs,
+               "EXR outputs get layers for a denoiser: albedo.RGB, N.XYZ (world-space shading normal), Z (depth) "
+               "and variance.RGB (one more ray per sample)");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
   try {
     app.parse(argc, argv);
@@ -278,6 +288,9 @@ int main(int argc, char** argv) {
     return fail(msg);
   }
   if (job.outputs.empty()) job.outputs.push_back("default.png");
+  if (job.aovs && std::none_of(job.outputs.begin(), job.outputs.end(),
+                               [](const std::string& o) { return lowercase_extension(o) == ".exr"; }))
+    return fail("--aov needs an .exr output (--out image.exr)");
   for (const auto& o : job.outputs)
     if (auto err = check_output(o); !err.empty()) return fail(err);
 

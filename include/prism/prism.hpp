@@ -46,6 +46,7 @@
 #include "prism/cameras/orthographic.hpp"
 #include "prism/film/filter.hpp"
 #include "prism/film/film.hpp"
+#include "prism/film/aov.hpp"
 #include "prism/integrators/path.hpp"
 #include "prism/render/scene.hpp"
 #include "prism/render/render.hpp"

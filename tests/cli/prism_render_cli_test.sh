@@ -31,6 +31,7 @@ expect_error --aperture -1
 expect_error --focus-distance 0
 expect_error --tonemap nope
 expect_error --shutter -1
+expect_error --aov --out "$tmp/aov.png"
 expect_error --shutter nan
 expect_error --time inf --shutter 1
 # glTF scenes: a one-triangle file written here, and broken ones.
@@ -90,6 +91,13 @@ else echo "ok: --shutter 1: $out"; fi
 "$bin" --width 16 --height 16 --spp 2 --rgb --quiet --shutter 0 --out "$tmp/still_b.pfm" >/dev/null 2>&1
 cmp -s "$tmp/still_a.pfm" "$tmp/still_b.pfm" || { echo "FAIL: --shutter 0 differs from no shutter"; fails=$((fails+1)); }
 cmp -s "$tmp/still_a.pfm" "$tmp/blur.pfm" && { echo "FAIL: --shutter 1 rendered the still image"; fails=$((fails+1)); }
+
+# AOVs: an EXR with the extra layers, and the PNG beside it unchanged.
+out=$("$bin" --width 16 --height 16 --spp 2 --rgb --quiet --aov --out "$tmp/aov.exr" --out "$tmp/aov.pfm" 2>/dev/null); rc=$?
+if [ "$rc" != 0 ] || [ ! -s "$tmp/aov.exr" ] || ! grep -aq 'albedo.R' "$tmp/aov.exr" || ! grep -aq 'variance.B' "$tmp/aov.exr"; then
+  echo "FAIL: --aov did not write the EXR layers ($rc)"; fails=$((fails+1))
+else echo "ok: --aov writes albedo, N, Z and variance layers"; fi
+cmp -s "$tmp/aov.pfm" "$tmp/still_a.pfm" || { echo "FAIL: --aov changed the image"; fails=$((fails+1)); }
 
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

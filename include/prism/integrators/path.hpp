@@ -23,6 +23,7 @@
 #pragma once
 #include <cstdint>
 #include "prism/bxdfs/volume.hpp"
+#include "prism/film/aov.hpp"
 #include "prism/lights/light.hpp"
 #include "prism/sampling/warps.hpp"
 
@@ -336,5 +337,47 @@ class BSDFPathIntegrator {
  private:
   PathOptions m_opt;
 };
+
+// The AOVs of one camera ray (film/aov.hpp): albedo, shading normal and depth
+// of the first surface that is not purely specular, followed through up to
+// `max_specular` mirror or glass bounces. `u()` returns uniform numbers from
+// a stream of the caller's that the image's own samples do not use.
+template <class Scene, class W, class U>
+AovSample first_hit_aovs(const Scene& scene, Ray ray, const W& lambda, U&& u, int max_specular = 8) {
+  using S = typename Scene::spectrum_type;
+  using traits = spectrum_traits<S>;
+  AovSample out;
+  S throughput(1);
+  for (int depth = 0; depth <= max_specular; ++depth) {
+    auto si = scene.intersect(ray);
+    if (!si) {
+      // Escaped through mirrors or glass: what they pass on, else nothing.
+      if (depth > 0) out.albedo = traits::to_film(throughput, lambda);
+      return out;
+    }
+    if (depth == 0) out.depth = length(si->p - ray.o) / length(ray.d);
+    auto bsdf = scene.bsdf(*si, lambda);
+    BxDFFlags flags = bsdf.flags();
+    Normal3f ns = dot(Vector3f(si->ns), si->wo) < 0 ? -si->ns : si->ns;
+    Float uc = u();
+    Float u0 = u();
+    Point2f u2{u0, u()};
+    if (!any(flags)) {  // no scattering (e.g. a black emitter): albedo 0
+      out.normal = ns;
+      return out;
+    }
+    auto bs = bsdf.sample(si->wo, uc, u2);
+    if (!is_non_specular(flags) && depth < max_specular) {
+      if (!bs || !(bs->pdf > 0)) return out;
+      throughput *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
+      ray = si->spawn_ray(bs->wi);
+      continue;
+    }
+    out.normal = ns;
+    if (bs && bs->pdf > 0) out.albedo = traits::to_film(throughput * bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf), lambda);
+    return out;
+  }
+  return out;
+}
 
 }  // namespace prism

@@ -17,12 +17,14 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 #include <tinyexr.h>
 #include "prism/error.hpp"
+#include "prism/film/aov.hpp"
 #include "prism/film/film.hpp"
 #include "prism/lights/image_infinite.hpp"
 
@@ -103,7 +105,55 @@ inline void write_exr(const std::string& path, const Image& img) {
   }
 }
 
+namespace detail {
+// The R, G and B channels at the root of a scanline EXR with other layers
+// beside them (tinyexr's LoadEXR looks at the first four channels only, which
+// in a file with "N.X" or "albedo.R" are not the image's). Empty if the file
+// is tiled or has no root R, G and B: LoadEXR then reads it.
+inline std::optional<Image> read_exr_root_rgb(const std::string& path) {
+  EXRVersion version;
+  if (ParseEXRVersionFromFile(&version, path.c_str()) != TINYEXR_SUCCESS || version.multipart || version.non_image ||
+      version.tiled)
+    return std::nullopt;
+  EXRHeader header;
+  InitEXRHeader(&header);
+  const char* err = nullptr;
+  if (ParseEXRHeaderFromFile(&header, &version, path.c_str(), &err) != TINYEXR_SUCCESS) {
+    if (err) FreeEXRErrorMessage(err);
+    return std::nullopt;
+  }
+  int idx[3] = {-1, -1, -1};
+  for (int c = 0; c < header.num_channels; ++c) {
+    std::string n = header.channels[c].name;
+    if (n == "R") idx[0] = c;
+    if (n == "G") idx[1] = c;
+    if (n == "B") idx[2] = c;
+    header.requested_pixel_types[c] = TINYEXR_PIXELTYPE_FLOAT;
+  }
+  if (idx[0] < 0 || idx[1] < 0 || idx[2] < 0 || header.num_channels <= 4 || header.tiled) {
+    FreeEXRHeader(&header);
+    return std::nullopt;
+  }
+  EXRImage image;
+  InitEXRImage(&image);
+  if (LoadEXRImageFromFile(&image, &header, path.c_str(), &err) != TINYEXR_SUCCESS) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    FreeEXRHeader(&header);
+    throw Error(path + ": cannot read EXR: " + msg);
+  }
+  Image img{image.width, image.height, std::vector<float>(size_t(image.width) * size_t(image.height) * 3)};
+  for (size_t i = 0; i < size_t(image.width) * size_t(image.height); ++i)
+    for (int c = 0; c < 3; ++c)
+      img.rgb[3 * i + size_t(c)] = reinterpret_cast<const float*>(image.images[idx[c]])[i];
+  FreeEXRImage(&image);
+  FreeEXRHeader(&header);
+  return img;
+}
+}  // namespace detail
+
 inline Image read_exr(const std::string& path) {
+  if (auto img = detail::read_exr_root_rgb(path)) return *std::move(img);
   float* data = nullptr;
   int w = 0, h = 0;
   const char* err = nullptr;
@@ -153,6 +203,76 @@ inline Image read_pfm(const std::string& path) {
 }
 
 inline Image to_image(const Film& film) { return {film.width(), film.height(), film.rgb_buffer()}; }
+
+// One channel of a multi-channel EXR: a name ("R", "albedo.G", "Z"...) and
+// width * height floats, row-major from the top-left.
+struct ExrChannel {
+  std::string name;
+  std::vector<float> data;
+};
+
+// Writes channels as one 32-bit float EXR (zip compressed), in the name order
+// OpenEXR readers expect. Non-finite values are written as 0.
+inline void write_exr_channels(const std::string& path, int width, int height, std::vector<ExrChannel> channels) {
+  if (width <= 0 || height <= 0 || channels.empty()) throw Error(path + ": an EXR needs a size and channels");
+  for (const auto& c : channels)
+    if (c.data.size() != size_t(width) * size_t(height))
+      throw Error(path + ": EXR channel '" + c.name + "' does not match the image size");
+  std::sort(channels.begin(), channels.end(), [](const ExrChannel& a, const ExrChannel& b) { return a.name < b.name; });
+  for (auto& c : channels)
+    for (float& v : c.data) v = detail::finite_or_zero(v);
+  EXRHeader header;
+  InitEXRHeader(&header);
+  EXRImage image;
+  InitEXRImage(&image);
+  std::vector<float*> ptrs;
+  for (auto& c : channels) ptrs.push_back(c.data.data());
+  image.images = reinterpret_cast<unsigned char**>(ptrs.data());
+  image.num_channels = int(channels.size());
+  image.width = width;
+  image.height = height;
+  std::vector<EXRChannelInfo> info(channels.size());
+  std::vector<int> types(channels.size(), TINYEXR_PIXELTYPE_FLOAT);
+  for (size_t i = 0; i < channels.size(); ++i) {
+    std::memset(&info[i], 0, sizeof(EXRChannelInfo));
+    std::strncpy(info[i].name, channels[i].name.c_str(), 255);
+  }
+  header.num_channels = int(channels.size());
+  header.channels = info.data();
+  header.pixel_types = types.data();
+  header.requested_pixel_types = types.data();
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+  const char* err = nullptr;
+  int rc = SaveEXRImageToFile(&image, &header, path.c_str(), &err);
+  if (rc != TINYEXR_SUCCESS) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    throw Error(path + ": cannot write EXR: " + msg);
+  }
+}
+
+// The film as an EXR with the layers a denoiser or compositor wants: R, G, B
+// (the image), albedo.R/G/B, N.X/Y/Z (world-space shading normal), Z (depth
+// along the camera ray) from the AOV film, and variance.R/G/B (the variance
+// of each pixel's estimate, Film::variance).
+inline void write_exr_with_aovs(const std::string& path, const Film& film, const AovFilm& aovs) {
+  const int w = film.width(), h = film.height();
+  if (aovs.width() != w || aovs.height() != h) throw Error(path + ": the AOV film's size differs from the film's");
+  const size_t n = size_t(w) * size_t(h);
+  const char* names[] = {"R", "G", "B", "albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z", "Z",
+                         "variance.R", "variance.G", "variance.B"};
+  std::vector<ExrChannel> ch;
+  for (const char* name : names) ch.push_back({name, std::vector<float>(n)});
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      size_t i = size_t(y) * size_t(w) + size_t(x);
+      RGB c = film.pixel(x, y), a = aovs.albedo(x, y), v = film.variance(x, y);
+      Vector3f nn = aovs.normal(x, y);
+      float vals[] = {c.r, c.g, c.b, a.r, a.g, a.b, nn.x, nn.y, nn.z, aovs.depth(x, y), v.r, v.g, v.b};
+      for (size_t k = 0; k < ch.size(); ++k) ch[k].data[i] = vals[k];
+    }
+  write_exr_channels(path, w, h, std::move(ch));
+}
 
 // Writes by extension: .png (with png's exposure and tone map), .exr or .pfm.
 inline void write_image(const std::string& path, const Image& img, const PngOptions& png = {}) {

@@ -35,6 +35,9 @@ struct RenderOptions {
   // Called from worker threads (serialised) after each tile: tiles done, total.
   std::function<void(int, int)> progress;
   const std::atomic<bool>* cancel = nullptr;  // set to stop early
+  // When set, also filled with albedo, normal and depth per pixel (the same
+  // size as the film; film/aov.hpp). Costs one more ray per camera sample.
+  AovFilm* aovs = nullptr;
 };
 
 struct RenderStats {
@@ -55,6 +58,11 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   using traits = spectrum_traits<S>;
   auto start = std::chrono::steady_clock::now();
   film.prepare(traits::film_xyz ? FilmEncoding::xyz : FilmEncoding::rgb);
+  if (opt.aovs) {
+    if (opt.aovs->width() != film.width() || opt.aovs->height() != film.height())
+      throw Error("render: the AOV film's size differs from the film's");
+    opt.aovs->set_xyz(traits::film_xyz);
+  }
   const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
   Shutter shutter;
   if constexpr (requires { camera.shutter(); }) shutter = camera.shutter();
@@ -116,6 +124,12 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
               continue;
             }
             film.add_sample(x, y, v, fs.weight);
+            if (opt.aovs) {
+              // Their own random stream, so the image does not depend on them.
+              PCG32 aov_rng(hash_values(uint64_t(x), uint64_t(y), uint64_t(s), opt.seed), 0xa0f5a0f5ull);
+              opt.aovs->add_sample(x, y, first_hit_aovs(scene, ray, lambda, [&] { return aov_rng.next_float(); }),
+                                   fs.weight);
+            }
           }
       int d = ++done;
       if (opt.progress) {
