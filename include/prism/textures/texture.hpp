@@ -226,7 +226,7 @@ class ImageTexture {
     const size_t stride = size_t(nc);
     u = detail::reduce_coordinate(u, wrap_s);
     v = detail::reduce_coordinate(v, wrap_t);
-    float c[4];
+    float c[4] = {0, 0, 0, 0};  // zeroed: GCC 12 -O3 -march=native sees a false maybe-uninitialized
     if (filter == FilterMode::nearest) {
       const int64_t x = detail::wrap_texel(int64_t(std::floor(u * Float(w))), w, wrap_s);
       const int64_t y = detail::wrap_texel(int64_t(std::floor(v * Float(h))), h, wrap_t);
