@@ -16,7 +16,6 @@
 // its relative error is bounded by gamma-style terms (see exit_from_inside).
 #pragma once
 #include <cmath>
-#include <limits>
 #include <optional>
 #include "prism/geometry/interaction.hpp"
 #include "prism/math/interval.hpp"
@@ -42,12 +41,6 @@ struct SphereHit {
 };
 
 namespace detail {
-
-// gamma(n) of double precision: bounds n chained roundings of doubles.
-constexpr double gamma_double(int n) {
-  constexpr double u = std::numeric_limits<double>::epsilon() * 0.5;
-  return (n * u) / (1 - n * u);
-}
 
 // The exit of a ray whose origin is certainly inside the sphere (c < 0), from
 // o - centre, d, a = |d|^2, half_b = (o - centre).d and c, all in double, with
@@ -90,7 +83,7 @@ inline std::optional<SphereHit> intersect_sphere(const Sphere& s, const Ray& ray
     // add four more; r2 is exact (a float squared fits in a double); the
     // subtraction one more, relative to |c|.
     double c = c2 - r2;
-    double c_err = detail::gamma_double(6) * c2 + detail::gamma_double(1) * std::abs(c);
+    double c_err = gamma_double(6) * c2 + gamma_double(1) * std::abs(c);
     if (c < 0 && -c > c_err && a > 0) return detail::exit_from_inside(a, half_b, c, c_err, t_max);
     double f = half_b / a;
     double vx = ox - f * dx, vy = oy - f * dy, vz = oz - f * dz;
