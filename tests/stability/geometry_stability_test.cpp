@@ -35,6 +35,19 @@ uint64_t positive_pixels(const Film& f) {
   return n;
 }
 
+// Both integrators render a scene whose reference is black: every pixel 0.
+template <class Scene, class Camera>
+void check_black(const Scene& scene, const Camera& cam, const RunSpec& spec, const std::string& c) {
+  const std::vector<double> ref_px(size_t(spec.width) * size_t(spec.height), 0.0);
+  for (int which = 0; which < 2; ++which) {
+    Run r = which ? run(scene, cam, PathIntegrator{}, spec) : run(scene, cam, BSDFPathIntegrator{}, spec);
+    Row row = make_row(c, which ? "NEE+MIS RGB" : "BSDF-only RGB", r, 1, 0, ref_px);
+    row.note = "lit pixels: " + std::to_string(positive_pixels(r.film)) + " (must be 0)";
+    row.check();
+    CHECK(positive_pixels(r.film) == 0);
+  }
+}
+
 }  // namespace
 
 TEST_CASE("a thin slab hides a light at the 1e-4, 1 and 1e6 scales", "[stability][geometry][scale]") {
@@ -58,19 +71,10 @@ TEST_CASE("a thin slab hides a light at the 1e-4, 1 and 1e6 scales", "[stability
     scene.build();
     OrthographicCamera cam(look_at_camera_to_world(Point3f(o) + Vector3f{0, 0.5f * S, 0}, Point3f(o), {0, 0, -1}),
                            2 * S, 16, 16);
-    const std::vector<double> ref_px(256, 0.0);
     RunSpec spec;
     spec.spp = 64;
     std::string c = "thin slab over floor, scale " + scale_name(s);
-    Run rn = run(scene, cam, PathIntegrator{}, spec), rb = run(scene, cam, BSDFPathIntegrator{}, spec);
-    Row nee = make_row(c, "NEE+MIS RGB", rn, 1, 0, ref_px);
-    Row bsdf = make_row(c, "BSDF-only RGB", rb, 1, 0, ref_px);
-    nee.note = "lit pixels: " + std::to_string(positive_pixels(rn.film)) + " (must be 0)";
-    bsdf.note = "lit pixels: " + std::to_string(positive_pixels(rb.film)) + " (must be 0)";
-    nee.check();
-    bsdf.check();
-    CHECK(positive_pixels(rn.film) == 0);
-    CHECK(positive_pixels(rb.film) == 0);
+    check_black(scene, cam, spec, c);
   }
 }
 
@@ -112,7 +116,6 @@ TEST_CASE("inside closed emitting enclosures at the 1e-4 and 1e6 scales", "[stab
 
 TEST_CASE("camera inside an opaque object in a bright environment", "[stability][geometry][camera_inside]") {
   // Nothing gets in: every pixel is exactly 0.
-  const std::vector<double> ref_px(256, 0.0);
   for (double s : {1e-4, 1.0, 1e6}) {
     Vector3f o = far_offset(s);
     Float S = Float(s);
@@ -136,14 +139,7 @@ TEST_CASE("camera inside an opaque object in a bright environment", "[stability]
       spec.spp = 32;
       std::string c = std::string(shape == 0 ? "camera inside opaque sphere" : "camera inside opaque box") +
                       ", scale " + scale_name(s);
-      Run rn = run(scene, cam, PathIntegrator{}, spec), rb = run(scene, cam, BSDFPathIntegrator{}, spec);
-      Row nee = make_row(c, "NEE+MIS RGB", rn, 1, 0, ref_px), bsdf = make_row(c, "BSDF-only RGB", rb, 1, 0, ref_px);
-      nee.note = "lit pixels: " + std::to_string(positive_pixels(rn.film)) + " (must be 0)";
-      bsdf.note = "lit pixels: " + std::to_string(positive_pixels(rb.film)) + " (must be 0)";
-      nee.check();
-      bsdf.check();
-      CHECK(positive_pixels(rn.film) == 0);
-      CHECK(positive_pixels(rb.film) == 0);
+      check_black(scene, cam, spec, c);
     }
   }
 }
