@@ -16,10 +16,10 @@ def main():
         f = [x.strip() for x in line.split("|")[1:]]
         case, method = f[0], f[1]
         val = {}
-        for item in f[2:]:
+        for item in f[2:-1]:  # the last field is the free-text note
             k, _, v = item.partition(" ")
             val[k] = v
-        note = f[-1] if not f[-1].startswith("non-finite") else ""
+        note = f[-1]
         bound = val.get("bound", "-")
         bounded = f"firefly ≤ {float(bound):.3g}" if bound not in ("-", "") else "reported"
         if note:
