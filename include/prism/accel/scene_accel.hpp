@@ -304,6 +304,7 @@ class SceneAccel {
     si.primitive = h.primitive;
     si.time = ray.time;
     si.wo = normalize(-ray.d);
+    si.wo_free = 0.5f * h.t * length(ray.d);  // the ray met nothing before the hit
     if (in.kind == Instance::Kind::sphere) {
       sphere_interaction(m_spheres[in.geometry], ray, SphereHit{h.t}, &si);
       return si;

@@ -2,6 +2,7 @@
 // conservative error bound, the geometric normal, the shading frame, uv, and the
 // ids of what was hit. Rays spawned from it start outside the error bound.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include "prism/geometry/ray.hpp"
 #include "prism/spectra/rgb.hpp"
@@ -22,12 +23,31 @@ struct SurfaceInteraction {
   RGB color{1};       // vertex colour (glTF COLOR_0), white if absent
   Float alpha = 1;    // vertex alpha
   Vector3f wo;        // unit direction back along the incoming ray
+  // How far back along wo space is known to be empty (half the incoming
+  // segment's length), 0 when unknown; see spawn_origin.
+  Float wo_free = 0;
   Float time = 0;
   int32_t material = -1;    // index into the scene's materials
   int32_t area_light = -1;  // index into the scene's lights, -1 if not emissive
   uint32_t instance = 0, primitive = 0;
 
-  Point3f spawn_origin(const Vector3f& w) const { return offset_ray_origin(p, p_error, n, w); }
+  // A ray leaving on wo's side first steps back along the incoming ray,
+  // through space that ray found empty, by twice the error box's size (at
+  // most wo_free): a hit point near a concave edge or corner whose error box
+  // reaches the neighbouring face (rounded onto or past its plane) then starts
+  // on that face's inner side too, not only off its own surface.
+  // tests/geometry/self_intersection_test.cpp has the near-edge box test.
+  Point3f spawn_origin(const Vector3f& w) const {
+    if (wo_free > 0 && dot(w, n) * dot(wo, n) > 0) {
+      Float e = std::min(wo_free, 2 * (p_error.x + p_error.y + p_error.z));
+      Vector3f step = wo * e;
+      Point3f q = p + step;
+      // q's error: p's, the rounding of wo * e and of the sum.
+      Vector3f q_error = p_error + abs(step) * gamma(1) + abs(q - Point3f{}) * gamma(1);
+      return offset_ray_origin(q, q_error, n, w);
+    }
+    return offset_ray_origin(p, p_error, n, w);
+  }
   Ray spawn_ray(const Vector3f& d) const { return {spawn_origin(d), d, time}; }
   // A ray towards p_to (itself already offset off its own surface); it reaches
   // p_to at t = 1.

@@ -2,10 +2,14 @@
 // test of Woop, Benthin and Wald 2013 ("Watertight Ray/Triangle Intersection",
 // JCGT 2(1)): rays that hit a shared edge or vertex hit at least one of the
 // triangles that share it. The hit parameter t is accepted only when it exceeds
-// its own conservative error bound (pbrt-v4 book, section 6.8.4), and the hit
-// point carries the error bound gamma(7) * sum |b_i p_i| (section 6.8.5).
+// its own conservative error bound (pbrt-v4 book, section 6.8.4; when single
+// precision cannot decide, the bound is recomputed in double, see
+// detail::refine_triangle_t), and the hit point carries the error bound
+// gamma(7) * sum |b_i p_i| (section 6.8.5).
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <optional>
 #include <vector>
 #include "prism/geometry/interaction.hpp"
@@ -47,6 +51,58 @@ struct TriangleHit {
   Float t;
   Float b0, b1, b2;  // barycentrics of p0, p1, p2
 };
+
+namespace detail {
+
+// The t test of intersect_triangle redone in double precision, for hits that
+// single precision cannot prove to lie in front of the origin: the same
+// translation, shear and edge functions (the shear coefficients, floats, are
+// exact in double and define the same sheared ray), and the same error bound
+// with gamma_double in place of gamma. A ray that starts a few 1e-7 from a
+// face meeting its own at a concave edge (the inside of a box, spawned near
+// the edge) has a t of that size, below the single-precision bound of a
+// triangle that extends ~1 along the ray; in double the bound is ~1e-16 and
+// the hit is kept, so the ray cannot leave a closed mesh through the edge.
+// Returns t when it is provably in (0, t_max).
+inline std::optional<Float> refine_triangle_t(const Point3f& o, const RayTrianglePrecomp& pc, Float t_max,
+                                              const Point3f& p0, const Point3f& p1, const Point3f& p2) {
+  struct V {
+    double x, y, z;
+  };
+  auto to_ray_space = [&](const Point3f& p) {
+    V v{double(p[pc.kx]) - double(o[pc.kx]), double(p[pc.ky]) - double(o[pc.ky]),
+        double(p[pc.kz]) - double(o[pc.kz])};
+    v.x += double(pc.sx) * v.z;
+    v.y += double(pc.sy) * v.z;
+    return v;
+  };
+  V a = to_ray_space(p0), b = to_ray_space(p1), c = to_ray_space(p2);
+  double e0 = b.x * c.y - b.y * c.x, e1 = c.x * a.y - c.y * a.x, e2 = a.x * b.y - a.y * b.x;
+  double det = e0 + e1 + e2;
+  if (det == 0 || !std::isfinite(det)) return std::nullopt;
+  double max_z = std::max({std::abs(a.z), std::abs(b.z), std::abs(c.z)});
+  double sz = pc.sz;
+  a.z *= sz;
+  b.z *= sz;
+  c.z *= sz;
+  double t = (e0 * a.z + e1 * b.z + e2 * c.z) / det;
+  double max_zt = std::max({std::abs(a.z), std::abs(b.z), std::abs(c.z)});
+  double max_xt = std::max({std::abs(a.x), std::abs(b.x), std::abs(c.x)});
+  double max_yt = std::max({std::abs(a.y), std::abs(b.y), std::abs(c.y)});
+  double delta_z = gamma_double(3) * max_zt;
+  double delta_x = gamma_double(5) * (max_xt + max_z), delta_y = gamma_double(5) * (max_yt + max_z);
+  double delta_e = 2 * (gamma_double(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+  double max_e = std::max({std::abs(e0), std::abs(e1), std::abs(e2)});
+  double delta_t = 3 * (gamma_double(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / std::abs(det);
+  // One more rounding for the division.
+  delta_t += gamma_double(1) * std::abs(t);
+  if (!(t > delta_t) || !(t + delta_t < double(t_max))) return std::nullopt;
+  Float tf = Float(t);
+  if (!(tf > 0) || !(tf < t_max)) return std::nullopt;
+  return tf;
+}
+
+}  // namespace detail
 
 inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const RayTrianglePrecomp& pc, Float t_max,
                                                      const Point3f& p0, const Point3f& p1, const Point3f& p2) {
@@ -100,7 +156,13 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
   Float delta_t = 3 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * std::abs(inv_det);
   // Written to reject NaN and infinite t too (overflowing products of huge
   // coordinates make det or t_scaled infinite, and their quotient NaN).
-  if (!(t > delta_t && t < infinity)) return std::nullopt;
+  if (!(t < infinity)) return std::nullopt;
+  if (!(t > delta_t)) {
+    // Inconclusive in single precision: decide in double (rare).
+    std::optional<Float> td = detail::refine_triangle_t(o, pc, t_max, p0, p1, p2);
+    if (!td) return std::nullopt;
+    t = *td;
+  }
   return TriangleHit{t, b0, b1, b2};
 }
 

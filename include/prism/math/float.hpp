@@ -29,6 +29,13 @@ constexpr Float gamma(int n) {
   return (Float(n) * machine_epsilon) / (1 - Float(n) * machine_epsilon);
 }
 
+// gamma(n) of double precision: bounds n chained roundings of doubles (the
+// double-precision fallbacks of the sphere and triangle tests).
+constexpr double gamma_double(int n) {
+  constexpr double u = std::numeric_limits<double>::epsilon() * 0.5;
+  return (n * u) / (1 - n * u);
+}
+
 // The next representable float above v (v itself for +inf); -0 steps to the
 // smallest positive denormal.
 inline float next_float_up(float v) {
