@@ -83,6 +83,9 @@ class Scene {
   }
   void add_infinite_light(const UniformInfiniteLight<S>& l) { add_light(l); }
   void set_light_selection(LightSelection s) { m_selection = s; }
+  // Off: triangle lights are always sampled by area (lights/area.hpp), for
+  // comparisons; takes effect at build().
+  void set_triangle_solid_angle_sampling(bool on) { m_triangle_solid_angle = on; }
 
   // Validates the scene and builds lights and the acceleration structure.
   void build(const BVHBuildOptions& opt = {}) {
@@ -141,8 +144,9 @@ class Scene {
           std::swap(p[1], p[2]);
           std::swap(uv[1], uv[2]);
         }
-        m_lights.emplace_back(TriangleAreaLight<S>(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t), uv,
-                                                   texture_mean));
+        TriangleAreaLight<S> light(p[0], p[1], p[2], *info.emission, uint32_t(i), uint32_t(t), uv, texture_mean);
+        light.set_solid_angle_sampling(m_triangle_solid_angle);
+        m_lights.emplace_back(std::move(light));
       }
     }
     m_area_light_count = m_lights.size();
@@ -380,6 +384,7 @@ class Scene {
   bool m_any_transparent = false;
   std::vector<uint32_t> m_infinite_indices;
   LightSelection m_selection = LightSelection::power;
+  bool m_triangle_solid_angle = true;
   PowerLightSampler m_light_sampler, m_area_light_sampler;
 };
 
