@@ -161,7 +161,7 @@ struct LightBoundsOf {
     Vector3f r(s.radius, s.radius, s.radius);
     b.bounds = Bounds3f(s.center - r, s.center + r);
     // power = pi sides 4 pi r^2 L: the intensity in any direction is L pi r^2.
-    b.phi = valid(power) / (4 * (l.two_sided() ? 2 : 1));
+    b.phi = valid(power) / (4 * pi * (l.two_sided() ? 2 : 1));
     b.cos_theta_o = -1;  // normals in every direction
     b.cos_theta_e = 0;
     return b;
