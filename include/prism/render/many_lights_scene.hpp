@@ -32,7 +32,7 @@ void build_many_lights_scene(Scene<S, Set>& scene, const ManyLightsOptions& opt 
   uint32_t box_id = scene.add_material(box_m);
   uint32_t black = scene.add_material(black_m);
   TriangleMesh floor;
-  append_quad(floor, {-8, 0, -8}, {0, 0, 16}, {16, 0, 0});  // facing +y
+  append_quad(floor, {-12, 0, -12}, {0, 0, 24}, {24, 0, 0});  // facing +y
   scene.add_mesh_instance(std::move(floor), floor_id);
   PCG32 rng(opt.seed, 0x5eed);
   auto uniform = [&](Float a, Float b) { return a + (b - a) * rng.next_float(); };
@@ -45,7 +45,7 @@ void build_many_lights_scene(Scene<S, Set>& scene, const ManyLightsOptions& opt 
     Point3f c{uniform(-5, 5), uniform(0.9f, 2.2f), uniform(-5, 5)};
     // A colour of random hue and a power spread over two decades.
     RGB colour(uniform(0.2f, 1), uniform(0.2f, 1), uniform(0.2f, 1));
-    Float scale = per_light * std::exp(uniform(std::log(0.1f), std::log(10.f))) * 0.35f;
+    Float scale = per_light * std::exp(uniform(std::log(0.1f), std::log(10.f))) * 4;
     if (i % 2 == 0) {
       Float r = uniform(0.03f, 0.07f);
       // Emission scaled so that a sphere and a triangle of the same scale carry about the same power.
@@ -73,7 +73,7 @@ void build_many_lights_scene(Scene<S, Set>& scene, const ManyLightsOptions& opt 
 
 // A view of the floor from above and in front.
 inline PerspectiveCamera many_lights_camera(int width, int height) {
-  return PerspectiveCamera(look_at_camera_to_world({0, 7, 9}, {0, 0, -0.5f}, {0, 1, 0}), radians(45.f), width,
+  return PerspectiveCamera(look_at_camera_to_world({0, 9, 7}, {0, 0, -0.5f}, {0, 1, 0}), radians(45.f), width,
                            height);
 }
 

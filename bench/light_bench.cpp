@@ -1,0 +1,123 @@
+// light_bench: light selection (uniform, power, light BVH) at equal time.
+// For the default scene (RGB) and the many-lights scene with 4 to 1000 lights
+// (render/many_lights_scene.hpp), a 64x64 reference is rendered at high spp;
+// then each selection renders at the spp that fills a fixed time budget on one
+// thread (calibrated by short renders), for several seeds, and its relMSE
+// against the reference, mean over pixels and channels of
+// (x - ref)^2 / (ref^2 + 0.01), is averaged over the seeds. relMSE x seconds
+// (the inverse efficiency) corrects for budgets not met exactly; the last
+// column is its ratio to uniform selection's (below 1: better). Writes
+// bench/results/light_selection.csv. Run from the project root.
+// Usage: light_bench [out.csv] [budget seconds] [reference spp]
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+#include <prism/prism.hpp>
+
+namespace {
+
+using namespace prism;
+
+constexpr int width = 64, height = 64, seeds = 3;
+
+struct Case {
+  std::string name;
+  int lights = 0;  // many-lights count; 0 for the default scene
+};
+
+void build_case(Scene<RGB>& scene, const Case& c) {
+  if (c.lights == 0) build_cornell_box(scene);
+  else build_many_lights_scene(scene, ManyLightsOptions{c.lights, 7, 64});
+}
+PerspectiveCamera camera_for(const Case& c) {
+  return c.lights == 0 ? default_camera(width, height) : many_lights_camera(width, height);
+}
+
+using Pixels = std::vector<float>;  // RGB, row-major
+
+Pixels render_image(const Scene<RGB>& scene, const Case& c, int spp, uint64_t seed, int threads, double* seconds) {
+  Film film(width, height);
+  RenderOptions opt;
+  opt.spp = spp;
+  opt.seed = seed;
+  opt.threads = threads;
+  RenderStats st = render(scene, camera_for(c), PathIntegrator{}, film, opt);
+  if (seconds) *seconds = st.seconds;
+  return film.rgb_buffer();
+}
+
+double rel_mse(const Pixels& img, const Pixels& ref) {
+  double sum = 0;
+  for (size_t i = 0; i < ref.size(); ++i) sum += sqr(double(img[i]) - double(ref[i])) / (sqr(double(ref[i])) + 0.01);
+  return sum / double(ref.size());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* out_path = argc > 1 ? argv[1] : "bench/results/light_selection.csv";
+  const double budget = argc > 2 ? std::atof(argv[2]) : 1.0;
+  const int ref_spp = argc > 3 ? std::atoi(argv[3]) : 4096;
+  std::vector<Case> cases{{"default", 0}};
+  for (int n : {4, 16, 64, 256, 1000}) cases.push_back({"many_lights", n});
+  const LightSelection kinds[3] = {LightSelection::uniform, LightSelection::power, LightSelection::bvh};
+
+  std::filesystem::create_directories(std::filesystem::path(out_path).parent_path());
+  std::ofstream csv(out_path);
+  const char* header =
+      "scene,lights,selection,auto_choice,spp,seconds,us_per_sample,relmse,relmse_x_seconds,vs_uniform\n";
+  csv << header;
+  std::printf("%s", header);
+  for (const Case& c : cases) {
+    // The reference: BVH selection (any unbiased selection would do), 2 threads.
+    Scene<RGB> ref_scene;
+    build_case(ref_scene, c);
+    ref_scene.set_light_selection(LightSelection::bvh);
+    ref_scene.build();
+    double ref_seconds = 0;
+    Pixels ref = render_image(ref_scene, c, ref_spp, 987654321, 2, &ref_seconds);
+    Scene<RGB> auto_scene;
+    build_case(auto_scene, c);
+    auto_scene.build();
+    const char* auto_choice = light_selection_name(auto_scene.light_selection());
+    std::fprintf(stderr, "%s %d: %zu lights, reference %d spp in %.1f s, auto: %s\n", c.name.c_str(), c.lights,
+                 auto_scene.lights().size(), ref_spp, ref_seconds, auto_choice);
+    double uniform_inv_eff = 0;
+    for (LightSelection k : kinds) {
+      Scene<RGB> scene;
+      build_case(scene, c);
+      scene.set_light_selection(k);
+      scene.build();
+      // Time per spp: the fastest of three short renders (the machine is shared).
+      const int probe_spp = 4;
+      double best = 1e30;
+      for (int r = 0; r < 3; ++r) {
+        double s = 0;
+        render_image(scene, c, probe_spp, 100 + uint64_t(r), 1, &s);
+        best = std::min(best, s);
+      }
+      int spp = std::max(1, int(budget / (best / probe_spp) + 0.5));
+      double err = 0, seconds = 0;
+      for (int s = 0; s < seeds; ++s) {
+        double t = 0;
+        Pixels img = render_image(scene, c, spp, 1 + uint64_t(s), 1, &t);
+        err += rel_mse(img, ref) / seeds;
+        seconds += t / seeds;
+      }
+      double inv_eff = err * seconds;
+      if (k == LightSelection::uniform) uniform_inv_eff = inv_eff;
+      char line[320];
+      std::snprintf(line, sizeof line, "%s,%zu,%s,%s,%d,%.4f,%.4f,%.6g,%.6g,%.4f\n", c.name.c_str(),
+                    scene.lights().size(), light_selection_name(k), auto_choice, spp, seconds,
+                    seconds / (double(spp) * width * height) * 1e6, err, inv_eff, inv_eff / uniform_inv_eff);
+      csv << line;
+      std::fputs(line, stdout);
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
