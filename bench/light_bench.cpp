@@ -8,6 +8,10 @@
 // (the inverse efficiency) corrects for budgets not met exactly; the last
 // column is its ratio to uniform selection's (below 1: better). Writes
 // bench/results/light_selection.csv. Run from the project root.
+// Each case is measured with full paths (max depth 64) and with direct light
+// only (max depth 1: a light sample and a BSDF sample at the first surface,
+// combined by MIS), where the selection's effect is not diluted by the noise
+// of indirect light.
 // Usage: light_bench [out.csv] [budget seconds] [reference spp]
 #include <algorithm>
 #include <cstdio>
@@ -39,13 +43,16 @@ PerspectiveCamera camera_for(const Case& c) {
 
 using Pixels = std::vector<float>;  // RGB, row-major
 
-Pixels render_image(const Scene<RGB>& scene, const Case& c, int spp, uint64_t seed, int threads, double* seconds) {
+Pixels render_image(const Scene<RGB>& scene, const Case& c, int spp, uint64_t seed, int threads, int max_depth,
+                    double* seconds) {
   Film film(width, height);
   RenderOptions opt;
   opt.spp = spp;
   opt.seed = seed;
   opt.threads = threads;
-  RenderStats st = render(scene, camera_for(c), PathIntegrator{}, film, opt);
+  PathOptions popt;
+  popt.max_depth = max_depth;
+  RenderStats st = render(scene, camera_for(c), PathIntegrator(popt), film, opt);
   if (seconds) *seconds = st.seconds;
   return film.rgb_buffer();
 }
@@ -69,53 +76,60 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(std::filesystem::path(out_path).parent_path());
   std::ofstream csv(out_path);
   const char* header =
-      "scene,lights,selection,auto_choice,spp,seconds,us_per_sample,relmse,relmse_x_seconds,vs_uniform\n";
+      "scene,lights,depth,selection,auto_choice,spp,seconds,us_per_sample,relmse,relmse_x_seconds,vs_uniform\n";
   csv << header;
   std::printf("%s", header);
   for (const Case& c : cases) {
-    // The reference: BVH selection (any unbiased selection would do), 2 threads.
-    Scene<RGB> ref_scene;
-    build_case(ref_scene, c);
-    ref_scene.set_light_selection(LightSelection::bvh);
-    ref_scene.build();
-    double ref_seconds = 0;
-    Pixels ref = render_image(ref_scene, c, ref_spp, 987654321, 2, &ref_seconds);
-    Scene<RGB> auto_scene;
-    build_case(auto_scene, c);
-    auto_scene.build();
-    const char* auto_choice = light_selection_name(auto_scene.light_selection());
-    std::fprintf(stderr, "%s %d: %zu lights, reference %d spp in %.1f s, auto: %s\n", c.name.c_str(), c.lights,
-                 auto_scene.lights().size(), ref_spp, ref_seconds, auto_choice);
-    double uniform_inv_eff = 0;
-    for (LightSelection k : kinds) {
-      Scene<RGB> scene;
-      build_case(scene, c);
-      scene.set_light_selection(k);
-      scene.build();
-      // Time per spp: the fastest of three short renders (the machine is shared).
+    for (int max_depth : {64, 1}) {
+      // The reference: BVH selection (any unbiased selection would do), 2 threads.
+      Scene<RGB> ref_scene;
+      build_case(ref_scene, c);
+      ref_scene.set_light_selection(LightSelection::bvh);
+      ref_scene.build();
+      double ref_seconds = 0;
+      Pixels ref = render_image(ref_scene, c, ref_spp, 987654321, 2, max_depth, &ref_seconds);
+      Scene<RGB> auto_scene;
+      build_case(auto_scene, c);
+      auto_scene.build();
+      const char* auto_choice = light_selection_name(auto_scene.light_selection());
+      std::fprintf(stderr, "%s %d, max depth %d: %zu lights, reference %d spp in %.1f s, auto: %s\n", c.name.c_str(),
+                   c.lights, max_depth, auto_scene.lights().size(), ref_spp, ref_seconds, auto_choice);
+      Scene<RGB> scenes[3];
+      for (int k = 0; k < 3; ++k) {
+        build_case(scenes[k], c);
+        scenes[k].set_light_selection(kinds[k]);
+        scenes[k].build();
+      }
+      // Time per spp: the fastest of three short renders per selection,
+      // interleaved so that a slow phase of the shared machine hits all alike.
       const int probe_spp = 4;
-      double best = 1e30;
-      for (int r = 0; r < 3; ++r) {
-        double s = 0;
-        render_image(scene, c, probe_spp, 100 + uint64_t(r), 1, &s);
-        best = std::min(best, s);
+      double best[3] = {1e30, 1e30, 1e30};
+      for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 3; ++k) {
+          double t = 0;
+          render_image(scenes[k], c, probe_spp, 100 + uint64_t(r), 1, max_depth, &t);
+          best[k] = std::min(best[k], t);
+        }
+      int spp[3];
+      double err[3] = {0, 0, 0}, seconds[3] = {0, 0, 0};
+      for (int k = 0; k < 3; ++k) spp[k] = std::max(1, int(budget / (best[k] / probe_spp) + 0.5));
+      for (int s = 0; s < seeds; ++s)
+        for (int k = 0; k < 3; ++k) {
+          double t = 0;
+          Pixels img = render_image(scenes[k], c, spp[k], 1 + uint64_t(s), 1, max_depth, &t);
+          err[k] += rel_mse(img, ref) / seeds;
+          seconds[k] += t / seeds;
+        }
+      for (int k = 0; k < 3; ++k) {
+        double inv_eff = err[k] * seconds[k], uniform_inv_eff = err[0] * seconds[0];
+        char line[320];
+        std::snprintf(line, sizeof line, "%s,%zu,%s,%s,%s,%d,%.4f,%.4f,%.6g,%.6g,%.4f\n", c.name.c_str(),
+                      scenes[k].lights().size(), max_depth == 1 ? "direct" : "full", light_selection_name(kinds[k]),
+                      auto_choice, spp[k], seconds[k], seconds[k] / (double(spp[k]) * width * height) * 1e6, err[k],
+                      inv_eff, inv_eff / uniform_inv_eff);
+        csv << line;
+        std::fputs(line, stdout);
       }
-      int spp = std::max(1, int(budget / (best / probe_spp) + 0.5));
-      double err = 0, seconds = 0;
-      for (int s = 0; s < seeds; ++s) {
-        double t = 0;
-        Pixels img = render_image(scene, c, spp, 1 + uint64_t(s), 1, &t);
-        err += rel_mse(img, ref) / seeds;
-        seconds += t / seeds;
-      }
-      double inv_eff = err * seconds;
-      if (k == LightSelection::uniform) uniform_inv_eff = inv_eff;
-      char line[320];
-      std::snprintf(line, sizeof line, "%s,%zu,%s,%s,%d,%.4f,%.4f,%.6g,%.6g,%.4f\n", c.name.c_str(),
-                    scene.lights().size(), light_selection_name(k), auto_choice, spp, seconds,
-                    seconds / (double(spp) * width * height) * 1e6, err, inv_eff, inv_eff / uniform_inv_eff);
-      csv << line;
-      std::fputs(line, stdout);
       std::fflush(stdout);
     }
   }
