@@ -144,11 +144,11 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
                   scene.accel().motions().size());
     shutter_note = buf;
   }
-  std::string lights = prism::light_selection_name(scene.light_selection());
+  std::string lights = std::string(prism::light_selection_name(scene.light_selection())) + " light selection";
   if (job.light_sampler == "auto") lights += " (auto)";
   int used_threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   std::printf(
-      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s light selection, %d threads: %.2f s, %.3f M "
+      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s, %d threads: %.2f s, %.3f M "
       "samples/s, %.3f M "
       "rays/s, %llu dropped%s%s\n",
       job.width, job.height, job.spp, model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
