@@ -6,7 +6,8 @@
 // against the reference, mean over pixels and channels of
 // (x - ref)^2 / (ref^2 + 0.01), is averaged over the seeds. relMSE x seconds
 // (the inverse efficiency) corrects for budgets not met exactly; the last
-// column is its ratio to uniform selection's (below 1: better). Writes
+// column is its ratio to uniform selection's (below 1: better). The same
+// over the pixels that see no emitter (surface_pixels) follows. Writes
 // bench/results/light_selection.csv. Run from the project root.
 // Each case is measured with full paths (max depth 64) and with direct light
 // only (max depth 1: a light sample and a BSDF sample at the first surface,
@@ -57,10 +58,33 @@ Pixels render_image(const Scene<RGB>& scene, const Case& c, int spp, uint64_t se
   return film.rgb_buffer();
 }
 
-double rel_mse(const Pixels& img, const Pixels& ref) {
+// relMSE over the pixels whose mask entry is set (all when the mask is empty).
+double rel_mse(const Pixels& img, const Pixels& ref, const std::vector<uint8_t>& mask = {}) {
   double sum = 0;
-  for (size_t i = 0; i < ref.size(); ++i) sum += sqr(double(img[i]) - double(ref[i])) / (sqr(double(ref[i])) + 0.01);
-  return sum / double(ref.size());
+  size_t count = 0;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    if (!mask.empty() && !mask[i / 3]) continue;
+    sum += sqr(double(img[i]) - double(ref[i])) / (sqr(double(ref[i])) + 0.01);
+    ++count;
+  }
+  return count ? sum / double(count) : 0;
+}
+
+// The pixels in which no camera ray of a 4x4 grid meets an emitter: their
+// noise is that of the light reflected by surfaces, which light selection
+// changes, not that of a bright light's edge crossing the pixel, which it
+// does not.
+std::vector<uint8_t> surface_pixels(const Scene<RGB>& scene, const Case& c) {
+  PerspectiveCamera cam = camera_for(c);
+  std::vector<uint8_t> mask(size_t(width) * height, 1);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int j = 0; j < 16; ++j) {
+        Point2f p{Float(x) + (Float(j % 4) + 0.5f) / 4, Float(y) + (Float(j / 4) + 0.5f) / 4};
+        auto si = scene.intersect(cam.generate_ray(CameraSample{p, {0.5f, 0.5f}}));
+        if (si && si->area_light >= 0) mask[size_t(y) * width + size_t(x)] = 0;
+      }
+  return mask;
 }
 
 }  // namespace
@@ -76,7 +100,8 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(std::filesystem::path(out_path).parent_path());
   std::ofstream csv(out_path);
   const char* header =
-      "scene,lights,depth,selection,auto_choice,spp,seconds,us_per_sample,relmse,relmse_x_seconds,vs_uniform\n";
+      "scene,lights,depth,selection,auto_choice,spp,seconds,us_per_sample,relmse,relmse_x_seconds,vs_uniform,"
+      "surface_pixels,relmse_surfaces,vs_uniform_surfaces\n";
   csv << header;
   std::printf("%s", header);
   for (const Case& c : cases) {
@@ -92,6 +117,9 @@ int main(int argc, char** argv) {
       build_case(auto_scene, c);
       auto_scene.build();
       const char* auto_choice = light_selection_name(auto_scene.light_selection());
+      std::vector<uint8_t> mask = surface_pixels(auto_scene, c);
+      size_t surface_count = 0;
+      for (uint8_t m : mask) surface_count += m;
       std::fprintf(stderr, "%s %d, max depth %d: %zu lights, reference %d spp in %.1f s, auto: %s\n", c.name.c_str(),
                    c.lights, max_depth, auto_scene.lights().size(), ref_spp, ref_seconds, auto_choice);
       Scene<RGB> scenes[3];
@@ -111,22 +139,24 @@ int main(int argc, char** argv) {
           best[k] = std::min(best[k], t);
         }
       int spp[3];
-      double err[3] = {0, 0, 0}, seconds[3] = {0, 0, 0};
+      double err[3] = {0, 0, 0}, err_s[3] = {0, 0, 0}, seconds[3] = {0, 0, 0};
       for (int k = 0; k < 3; ++k) spp[k] = std::max(1, int(budget / (best[k] / probe_spp) + 0.5));
       for (int s = 0; s < seeds; ++s)
         for (int k = 0; k < 3; ++k) {
           double t = 0;
           Pixels img = render_image(scenes[k], c, spp[k], 1 + uint64_t(s), 1, max_depth, &t);
           err[k] += rel_mse(img, ref) / seeds;
+          err_s[k] += rel_mse(img, ref, mask) / seeds;
           seconds[k] += t / seeds;
         }
       for (int k = 0; k < 3; ++k) {
         double inv_eff = err[k] * seconds[k], uniform_inv_eff = err[0] * seconds[0];
-        char line[320];
-        std::snprintf(line, sizeof line, "%s,%zu,%s,%s,%s,%d,%.4f,%.4f,%.6g,%.6g,%.4f\n", c.name.c_str(),
+        double ratio_s = (err_s[k] * seconds[k]) / (err_s[0] * seconds[0]);
+        char line[400];
+        std::snprintf(line, sizeof line, "%s,%zu,%s,%s,%s,%d,%.4f,%.4f,%.6g,%.6g,%.4f,%zu,%.6g,%.4f\n", c.name.c_str(),
                       scenes[k].lights().size(), max_depth == 1 ? "direct" : "full", light_selection_name(kinds[k]),
                       auto_choice, spp[k], seconds[k], seconds[k] / (double(spp[k]) * width * height) * 1e6, err[k],
-                      inv_eff, inv_eff / uniform_inv_eff);
+                      inv_eff, inv_eff / uniform_inv_eff, surface_count, err_s[k], ratio_s);
         csv << line;
         std::fputs(line, stdout);
       }
