@@ -84,7 +84,15 @@ struct Job {
   std::string env;
   float env_scale = 1;
   bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
+  std::string light_sampler = "auto";  // auto, power, uniform or bvh
 };
+
+prism::LightSelection light_selection(const std::string& name) {
+  if (name == "power") return prism::LightSelection::power;
+  if (name == "uniform") return prism::LightSelection::uniform;
+  if (name == "bvh") return prism::LightSelection::bvh;
+  return prism::LightSelection::automatic;
+}
 
 // Renders scene through camera and writes the outputs.
 template <class SceneT, class Camera>
@@ -136,12 +144,15 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
                   scene.accel().motions().size());
     shutter_note = buf;
   }
+  std::string lights = std::string(prism::light_selection_name(scene.light_selection())) + " light selection";
+  if (job.light_sampler == "auto") lights += " (auto)";
   int used_threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   std::printf(
-      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %d threads: %.2f s, %.3f M samples/s, %.3f M "
+      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s, %d threads: %.2f s, %.3f M "
+      "samples/s, %.3f M "
       "rays/s, %llu dropped%s%s\n",
       job.width, job.height, job.spp, model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
-      used_threads, st.seconds,
+      lights.c_str(), used_threads, st.seconds,
       double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
       st.cancelled ? " (cancelled)" : "", shutter_note.c_str());
   return st.cancelled ? 130 : 0;
@@ -156,6 +167,7 @@ int run_default(const Job& job, const char* model) {
     CornellBoxOptions box;
     box.box_motion = job.shutter > 0;  // the tall box moves between times 0 and 1
     build_cornell_box(scene, box);
+    scene.set_light_selection(light_selection(job.light_sampler));
     scene.build();
     DefaultSceneDesc desc;
     desc.lens_radius = job.aperture;
@@ -185,6 +197,7 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
         std::fprintf(stderr, "prism-render: the scene has no punctual light: adding a white environment\n");
       g.scene.add_light(UniformInfiniteLight<S>(RGB(1)));
     }
+    g.scene.set_light_selection(light_selection(job.light_sampler));
     g.scene.build();
   } catch (const Error& e) {
     return fail(e.what());
@@ -275,6 +288,11 @@ int main(int argc, char** argv) {
   app.add_flag("--aov", job.aovs,
                "EXR outputs get layers for a denoiser: albedo.RGB, N.XYZ (world-space shading normal), Z (depth) "
                "and variance.RGB (one more ray per sample)");
+  app.add_option("--light-sampler", job.light_sampler,
+                 "How next-event estimation chooses a light: power (by emitted power), uniform, bvh (a light BVH "
+                 "weighing lights by their importance for each point) or auto (bvh from 8 lights with bounds, else "
+                 "power)")
+      ->check(CLI::IsMember({"auto", "power", "uniform", "bvh"}));
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
   try {
     app.parse(argc, argv);

@@ -42,6 +42,8 @@
 #include "prism/lights/punctual.hpp"
 #include "prism/lights/power_sampler.hpp"
 #include "prism/lights/light_sampler.hpp"
+#include "prism/lights/light_bounds.hpp"
+#include "prism/lights/bvh_sampler.hpp"
 #include "prism/cameras/perspective.hpp"
 #include "prism/cameras/orthographic.hpp"
 #include "prism/film/filter.hpp"
@@ -51,3 +53,4 @@
 #include "prism/render/scene.hpp"
 #include "prism/render/render.hpp"
 #include "prism/render/default_scene.hpp"
+#include "prism/render/many_lights_scene.hpp"

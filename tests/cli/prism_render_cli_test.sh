@@ -34,6 +34,7 @@ expect_error --shutter -1
 expect_error --aov --out "$tmp/aov.png"
 expect_error --shutter nan
 expect_error --time inf --shutter 1
+expect_error --light-sampler nope
 # glTF scenes: a one-triangle file written here, and broken ones.
 tri="$tmp/tri.gltf"
 cat > "$tri" <<'JSON'
@@ -98,6 +99,22 @@ if [ "$rc" != 0 ] || [ ! -s "$tmp/aov.exr" ] || ! grep -aq 'albedo.R' "$tmp/aov.
   echo "FAIL: --aov did not write the EXR layers ($rc)"; fails=$((fails+1))
 else echo "ok: --aov writes albedo, N, Z and variance layers"; fi
 cmp -s "$tmp/aov.pfm" "$tmp/still_a.pfm" || { echo "FAIL: --aov changed the image"; fails=$((fails+1)); }
+
+# Light selection: each choice renders and the summary names it; auto picks
+# power for the default scene's few lights.
+for ls in auto power uniform bvh; do
+  case "$ls" in auto) want="power light selection (auto)" ;; *) want="$ls light selection" ;; esac
+  out=$("$bin" --width 12 --height 12 --spp 2 --rgb --quiet --light-sampler $ls --out "$tmp/ls_$ls.pfm" 2>/dev/null); rc=$?
+  if [ "$rc" != 0 ] || [ ! -s "$tmp/ls_$ls.pfm" ] || ! printf '%s\n' "$out" | grep -qF "$want"; then
+    echo "FAIL: --light-sampler $ls ($rc): $out"; fails=$((fails+1))
+  else echo "ok: --light-sampler $ls: $want"; fi
+done
+out=$("$bin" "$tri" --width 8 --height 8 --spp 1 --quiet --light-sampler bvh --out "$tmp/tri_bvh.pfm" 2>/dev/null); rc=$?
+if [ "$rc" != 0 ] || ! printf '%s\n' "$out" | grep -qF "bvh light selection"; then
+  echo "FAIL: a glTF scene with --light-sampler bvh ($rc): $out"; fails=$((fails+1))
+else echo "ok: glTF with --light-sampler bvh"; fi
+# The default image with auto selection is the power-selection image, bit for bit.
+cmp -s "$tmp/ls_auto.pfm" "$tmp/ls_power.pfm" || { echo "FAIL: auto differs from power on the default scene"; fails=$((fails+1)); }
 
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

@@ -72,7 +72,7 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
             if (!weigh_by_mis) {
               L += Le;
             } else {
-              Float p_l = scene.light_sampler().pmf(idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
+              Float p_l = scene.light_pmf(prev, idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
               L += Le * power_heuristic(bsdf_pdf, p_l);
             }
           }
@@ -164,7 +164,7 @@ class PathIntegrator {
           L += beta * Le;
         } else {
           const auto& light = scene.lights()[size_t(si->area_light)];
-          Float p_l = scene.light_sampler().pmf(uint32_t(si->area_light)) *
+          Float p_l = scene.light_pmf(prev, uint32_t(si->area_light)) *
                       std::visit([&](const auto& l) { return Float(l.pdf_li(prev, ray.d, *si)); }, light);
           L += beta * Le * power_heuristic(bsdf_pdf, p_l);
         }
@@ -278,9 +278,9 @@ class PathIntegrator {
     using S = typename Scene::spectrum_type;
     Float ul = sampler.get_1d();
     Point2f u = sampler.get_2d();
-    auto sl = scene.light_sampler().sample(ul);
-    if (!sl) return S{};
     LightSampleContext ctx(si);
+    auto sl = scene.sample_light(ctx, ul);
+    if (!sl) return S{};
     const auto& light = scene.lights()[sl->index];
     auto ls = std::visit([&](const auto& l) { return l.sample_li(ctx, u, lambda); }, light);
     if (!ls || ls->L.is_black() || !(ls->pdf > 0)) return S{};

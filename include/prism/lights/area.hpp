@@ -87,6 +87,9 @@ class TriangleAreaLight {
   Float area() const { return m_area; }
   // Off: always sample by area (for comparisons; the default is on).
   void set_solid_angle_sampling(bool on) { m_solid_angle_sampling = on; }
+  const Point3f& vertex(int i) const { return m_p[i]; }
+  const Normal3f& normal() const { return m_n; }  // the front side's
+  bool two_sided() const { return m_emission.two_sided; }
 
   // Radiance leaving the light at a point with geometric normal n towards w.
   // Without a texture; with one, the texture's value at the centroid.
@@ -235,6 +238,8 @@ class SphereAreaLight {
       : m_sphere(s), m_emission(e), m_instance(instance) {}
 
   LightKind kind() const { return LightKind::area; }
+  const Sphere& sphere() const { return m_sphere; }
+  bool two_sided() const { return m_emission.two_sided; }
 
   template <class W>
   S L(const Normal3f& n, const Vector3f& w, const W& lambda) const {

@@ -16,6 +16,7 @@
 #include "prism/bxdfs/diffuse.hpp"
 #include "prism/error.hpp"
 #include "prism/lights/area.hpp"
+#include "prism/lights/bvh_sampler.hpp"
 #include "prism/lights/image_infinite.hpp"
 #include "prism/lights/infinite.hpp"
 #include "prism/lights/light_sampler.hpp"
@@ -34,8 +35,23 @@ using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfi
                            SunLight<S>, PointLight<S>, SpotLight<S>, DistantLight<S>>;
 
 // How next-event estimation chooses a light: with probability proportional
-// to its power (the default), or uniformly.
-enum class LightSelection { power, uniform };
+// to its power, uniformly, by a light BVH that weighs the lights by their
+// importance for the shading point (lights/bvh_sampler.hpp), or (the default)
+// automatically: power below `bvh_light_threshold` lights with bounds (area
+// lights, point and spot lights), the BVH from there on (docs/lights.md has
+// the measurements behind the choice).
+enum class LightSelection { power, uniform, bvh, automatic };
+inline constexpr size_t bvh_light_threshold = 8;
+
+inline const char* light_selection_name(LightSelection s) {
+  switch (s) {
+    case LightSelection::power: return "power";
+    case LightSelection::uniform: return "uniform";
+    case LightSelection::bvh: return "bvh";
+    case LightSelection::automatic: return "auto";
+  }
+  return "?";
+}
 
 template <class S, class Set = default_bxdf_set<S>>
 class Scene {
@@ -179,9 +195,28 @@ class Scene {
       bool has_le = std::visit([](const auto& light) { return requires { light.Le(Ray{}, wavelengths_t<S>{}); }; }, l);
       if (has_le) m_infinite_indices.push_back(uint32_t(m_lights.size() - 1));
     }
-    if (m_selection == LightSelection::power) {
+    m_resolved = m_selection;
+    std::vector<std::optional<LightBounds>> bounds;
+    if (m_selection == LightSelection::bvh || m_selection == LightSelection::automatic) {
+      size_t bounded = 0;
+      for (const auto& l : m_lights) {
+        std::optional<LightBounds> b = light_bounds<S>(l);
+        // Unbounded lights of zero power: a bound of zero power, never chosen.
+        if (!b && !(light_power_luminance<S>(l) > 0)) b = LightBounds{};
+        if (b && b->phi > 0) ++bounded;
+        bounds.push_back(b);
+      }
+      if (m_selection == LightSelection::automatic)
+        m_resolved = bounded >= bvh_light_threshold ? LightSelection::bvh : LightSelection::power;
+    }
+    if (m_resolved == LightSelection::bvh) {
+      m_bvh_sampler = BVHLightSampler(bounds);
+      m_light_sampler = make_power_light_sampler<S>(m_lights);
+    } else if (m_resolved == LightSelection::power) {
+      m_bvh_sampler = BVHLightSampler();
       m_light_sampler = make_power_light_sampler<S>(m_lights);
     } else {
+      m_bvh_sampler = BVHLightSampler();
       std::vector<Float> ones(m_lights.size(), Float(1));
       m_light_sampler = PowerLightSampler(ones);
     }
@@ -256,7 +291,24 @@ class Scene {
 
   const std::vector<light_type>& lights() const { return m_lights; }
   const std::vector<uint32_t>& infinite_lights() const { return m_infinite_indices; }
+  // The light for next-event estimation at ctx (a surface point and its
+  // shading normal; a zero normal for a point in a medium), and the
+  // probability light_pmf(ctx, i) of choosing light i there: by the selection
+  // build() resolved (light_selection()).
+  std::optional<SampledLight> sample_light(const LightSampleContext& ctx, Float u) const {
+    if (m_resolved == LightSelection::bvh) return m_bvh_sampler.sample(ctx, u);
+    return m_light_sampler.sample(u);
+  }
+  Float light_pmf(const LightSampleContext& ctx, uint32_t light) const {
+    if (m_resolved == LightSelection::bvh) return m_bvh_sampler.pmf(ctx, light);
+    return m_light_sampler.pmf(light);
+  }
+  // The selection in use after build(): power, uniform or bvh (automatic resolved).
+  LightSelection light_selection() const { return m_resolved; }
+  // Context-free: by power (or uniform with LightSelection::uniform); with the
+  // BVH selection, the power sampler. Next-event estimation uses sample_light.
   const PowerLightSampler& light_sampler() const { return m_light_sampler; }
+  const BVHLightSampler& bvh_light_sampler() const { return m_bvh_sampler; }
   // Chooses among the area lights only (by power): where light paths start.
   const PowerLightSampler& area_light_sampler() const { return m_area_light_sampler; }
   const SceneAccel& accel() const { return m_accel; }
@@ -383,9 +435,10 @@ class Scene {
   std::vector<uint8_t> m_transparent;  // per material: may_be_transparent
   bool m_any_transparent = false;
   std::vector<uint32_t> m_infinite_indices;
-  LightSelection m_selection = LightSelection::power;
+  LightSelection m_selection = LightSelection::automatic, m_resolved = LightSelection::power;
   bool m_triangle_solid_angle = true;
   PowerLightSampler m_light_sampler, m_area_light_sampler;
+  BVHLightSampler m_bvh_sampler;
 };
 
 }  // namespace prism
