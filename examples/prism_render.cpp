@@ -134,7 +134,7 @@ struct Outcome {
   prism::RenderStats st;
   int threads = 1;
   std::vector<std::string> rank_lines;  // under MPI: one line per rank
-  double imbalance = 1, reduce_seconds = 0;
+  double imbalance = 1, wait_seconds = 0, reduce_seconds = 0;
 };
 
 // Renders scene through camera and writes the outputs.
@@ -177,6 +177,7 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
         prism::mpi::DistributedStats d = prism::mpi::render(scene, camera, integrator, film, opt, split, pixel_filter);
         out.st = d.total;
         out.reduce_seconds = d.reduce_seconds;
+        out.wait_seconds = d.wait_seconds;
         out.imbalance = d.imbalance();
         for (size_t r = 0; r < d.ranks.size(); ++r) {
           const auto& q = d.ranks[r];
@@ -230,8 +231,8 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
       st.cancelled ? " (cancelled)" : "", shutter_note.c_str());
   if (distributed()) {
     for (const auto& line : result.rank_lines) std::printf("prism-render:   %s\n", line.c_str());
-    std::printf("prism-render: balance (slowest rank / mean) %.3f, reduction on rank 0 %.3f s\n", result.imbalance,
-                result.reduce_seconds);
+    std::printf("prism-render: balance (slowest rank / mean) %.3f, rank 0 waited %.3f s, reduction %.3f s\n",
+                result.imbalance, result.wait_seconds, result.reduce_seconds);
   }
   return st.cancelled ? 130 : 0;
 }

@@ -265,7 +265,8 @@ struct DistributedStats {
   RenderStats total;             // on root: sums over the ranks; seconds is the whole wall time
   std::vector<RankStats> ranks;  // on root: one per rank, in rank order
   RankStats mine;                // this rank's
-  double reduce_seconds = 0;     // this rank's time in the reduction (root: receiving and adding)
+  double wait_seconds = 0;       // this rank's wait for the slowest rank to finish rendering
+  double reduce_seconds = 0;     // then its time in the reduction (root: receiving and adding)
   // Slowest rank's render time over the mean (1 = perfectly balanced); root.
   double imbalance() const {
     if (ranks.empty()) return 1;
@@ -299,6 +300,11 @@ DistributedStats render(const Scene& scene, const Camera& camera, const Integrat
   out.mine.threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   out.mine.cancelled = st.cancelled;
 
+  // The barrier only separates waiting for the slowest rank from the
+  // reduction proper in the figures.
+  auto wait_start = std::chrono::steady_clock::now();
+  MPI_Barrier(comm);
+  out.wait_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
   out.reduce_seconds = reduce_film(film, root, comm);
   if (opt.aovs) out.reduce_seconds += reduce_aovs(*opt.aovs, root, comm);
 
