@@ -27,7 +27,7 @@
 #include "prism/error.hpp"
 #include "prism/film/aov.hpp"
 #include "prism/film/film.hpp"
-#include "prism/render/render.hpp"
+#include "prism/prism.hpp"  // render.hpp and what the integrators need
 
 namespace prism::mpi {
 
