@@ -154,6 +154,17 @@ inline void wait_politely(MPI_Request& req) {
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
 }
+// Waits for a transfer in progress: polls (each test moves the transfer on)
+// but yields the core between polls to any other thread that wants it, such
+// as the other end of the transfer on a busy node.
+inline void wait_yielding(MPI_Request& req, MPI_Status* status = MPI_STATUS_IGNORE) {
+  for (;;) {
+    int done = 0;
+    MPI_Test(&req, &done, status);
+    if (done) return;
+    std::this_thread::yield();
+  }
+}
 
 // Pixels per message: 4 MiB of accumulators, small enough to keep the
 // receive buffers small and to overlap the next message with the additions.
@@ -180,7 +191,9 @@ void reduce_in_rank_order(const T* data, size_t n, Merge&& merge, int root, MPI_
     wait_politely(ready);
     for (size_t m = 0; m < messages; ++m) {
       size_t first = m * chunk, count = std::min(chunk, n - first);
-      MPI_Send(data + first, int(count * sizeof(T)), MPI_BYTE, root, tag, comm);
+      MPI_Request req;
+      MPI_Isend(data + first, int(count * sizeof(T)), MPI_BYTE, root, tag, comm, &req);
+      wait_yielding(req);
     }
     return;
   }
@@ -198,7 +211,7 @@ void reduce_in_rank_order(const T* data, size_t n, Merge&& merge, int root, MPI_
     post(0);
     for (size_t m = 0; m < messages; ++m) {
       MPI_Status status;
-      MPI_Wait(&req, &status);
+      wait_yielding(req, &status);
       size_t first = m * chunk, count = std::min(chunk, n - first);
       int bytes = 0;
       MPI_Get_count(&status, MPI_BYTE, &bytes);
