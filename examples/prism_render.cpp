@@ -1,6 +1,9 @@
 // prism-render: renders a glTF 2.0 scene (.gltf or .glb), or the built-in
 // default scene (a Cornell box) when none is given, to PNG, EXR and/or PFM.
 // Exit codes: 0 success, 2 bad options, a bad scene or unwritable output.
+// Built with MPI (PRISM_WITH_MPI) and started by mpirun with several ranks,
+// the ranks share the work (--split) and rank 0 writes the outputs
+// (prism/render/mpi.hpp, docs/distributed.md).
 #include <unistd.h>
 #include <atomic>
 #include <chrono>
@@ -13,14 +16,53 @@
 #include <prism/prism.hpp>
 #include <prism/io/gltf.hpp>
 #include <prism/io/image_io.hpp>
+#if defined(PRISM_HAS_MPI)
+#include <prism/render/mpi.hpp>
+#endif
 
 namespace {
 
 std::atomic<bool> g_cancel{false};
 
+// Under MPI with several ranks: this process's rank and the rank count.
+int g_rank = 0, g_ranks = 1;
+bool distributed() { return g_ranks > 1; }
+// Under MPI, an error before the render is kept until every rank has said
+// whether it got that far (sync_before_render), so that it is reported once
+// (by the lowest failing rank) and no rank waits for one that gave up.
+std::string g_pending_error;
+bool g_synced = false;
+
 int fail(const std::string& msg) {
-  std::fprintf(stderr, "prism-render: error: %s\n", msg.c_str());
+  if (distributed()) g_pending_error = msg;
+  else std::fprintf(stderr, "prism-render: error: %s\n", msg.c_str());
   return 2;
+}
+
+// An error that every rank meets alike (bad options): rank 0 reports it and
+// no rank needs to hear from the others.
+int fail_everywhere(const std::string& msg) {
+  g_synced = true;
+  if (g_rank == 0) std::fprintf(stderr, "prism-render: error: %s\n", msg.c_str());
+  return 2;
+}
+
+// Collective under MPI: every rank calls it exactly once, either just before
+// rendering (code 0) or having failed before (code != 0). Returns whether all
+// ranks are ready to render.
+bool sync_before_render([[maybe_unused]] int code) {
+#if defined(PRISM_HAS_MPI)
+  if (!distributed()) return true;
+  g_synced = true;
+  int first = prism::mpi::first_failed_rank(code == 0);
+  if (first == g_rank) {
+    std::fprintf(stderr, "prism-render: rank %d: error: %s\n", g_rank, g_pending_error.c_str());
+    std::fflush(stderr);
+  }
+  return first < 0;
+#else
+  return true;
+#endif
 }
 
 std::string lowercase_extension(const std::string& path) {
@@ -85,6 +127,15 @@ struct Job {
   float env_scale = 1;
   bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
   std::string light_sampler = "auto";  // auto, power, uniform or bvh
+  std::string split = "samples";  // under MPI: how the ranks share the work
+};
+
+// What the render reports, with or without MPI.
+struct Outcome {
+  prism::RenderStats st;
+  int threads = 1;
+  std::vector<std::string> rank_lines;  // under MPI: one line per rank
+  double imbalance = 1, wait_seconds = 0, reduce_seconds = 0;
 };
 
 prism::LightSelection light_selection(const std::string& name) {
@@ -103,13 +154,14 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   } catch (const Error& e) {
     return fail(e.what());
   }
+  if (!sync_before_render(0)) return 2;
   Film film(job.width, job.height);
   std::signal(SIGINT, [](int) { g_cancel = true; });
-  ProgressBar bar(!job.quiet && ::isatty(STDERR_FILENO));
+  ProgressBar bar(!job.quiet && g_rank == 0 && ::isatty(STDERR_FILENO));
   RenderOptions opt;
   opt.spp = job.spp;
   opt.seed = job.seed;
-  opt.threads = job.threads;
+  opt.threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   opt.cancel = &g_cancel;
   opt.sampler = job.sampler == "sobol"        ? SamplerKind::sobol
                 : job.sampler == "stratified" ? SamplerKind::stratified
@@ -122,11 +174,41 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   }
   PathOptions popt;
   popt.max_depth = job.max_depth;
-  auto go = [&](const auto& pixel_filter) {
-    return job.integrator == "bsdf" ? render(scene, camera, BSDFPathIntegrator(popt), film, opt, pixel_filter)
-                                    : render(scene, camera, PathIntegrator(popt), film, opt, pixel_filter);
+  auto with_integrator = [&](const auto& integrator, const auto& pixel_filter) {
+    Outcome out;
+    out.threads = opt.threads;
+#if defined(PRISM_HAS_MPI)
+    if (distributed()) {
+      // A rank that throws from here on stops the whole job, naming itself.
+      return prism::mpi::run_or_abort("prism-render", [&] {
+        auto split = job.split == "tiles" ? prism::mpi::Split::tiles : prism::mpi::Split::samples;
+        prism::mpi::DistributedStats d = prism::mpi::render(scene, camera, integrator, film, opt, split, pixel_filter);
+        out.st = d.total;
+        out.reduce_seconds = d.reduce_seconds;
+        out.wait_seconds = d.wait_seconds;
+        out.imbalance = d.imbalance();
+        for (size_t r = 0; r < d.ranks.size(); ++r) {
+          const auto& q = d.ranks[r];
+          char buf[200];
+          std::snprintf(buf, sizeof buf, "rank %zu: %d threads, %.3f s, %llu samples, %llu light paths, %.3f M rays",
+                        r, q.threads, q.seconds, (unsigned long long)q.samples, (unsigned long long)q.light_paths,
+                        double(q.rays) * 1e-6);
+          out.rank_lines.push_back(buf);
+        }
+        return out;
+      });
+    }
+#endif
+    out.st = render(scene, camera, integrator, film, opt, pixel_filter);
+    return out;
   };
-  RenderStats st = go(make_filter(job.filter));
+  auto go = [&](const auto& pixel_filter) {
+    return job.integrator == "bsdf" ? with_integrator(BSDFPathIntegrator(popt), pixel_filter)
+                                    : with_integrator(PathIntegrator(popt), pixel_filter);
+  };
+  Outcome result = go(make_filter(job.filter));
+  const RenderStats& st = result.st;
+  if (g_rank != 0) return st.cancelled ? 130 : 0;  // rank 0 writes and reports
   Image img = to_image(film);
   PngOptions png{std::exp2(job.exposure_ev), job.tone_map == "neutral" ? ToneMap::neutral : ToneMap::clamp};
   for (const auto& o : job.outputs) {
@@ -146,15 +228,22 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   }
   std::string lights = std::string(prism::light_selection_name(scene.light_selection())) + " light selection";
   if (job.light_sampler == "auto") lights += " (auto)";
-  int used_threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  std::string workers = std::to_string(result.threads) + " threads";
+  if (distributed())
+    workers = std::to_string(g_ranks) + " ranks x " + std::to_string(result.threads) + " threads (" + job.split +
+              " split)";
   std::printf(
-      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s, %d threads: %.2f s, %.3f M "
-      "samples/s, %.3f M "
+      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s, %s: %.2f s, %.3f M samples/s, %.3f M "
       "rays/s, %llu dropped%s%s\n",
       job.width, job.height, job.spp, model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
-      lights.c_str(), used_threads, st.seconds,
+      lights.c_str(), workers.c_str(), st.seconds,
       double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
       st.cancelled ? " (cancelled)" : "", shutter_note.c_str());
+  if (distributed()) {
+    for (const auto& line : result.rank_lines) std::printf("prism-render:   %s\n", line.c_str());
+    std::printf("prism-render: balance (slowest rank / mean) %.3f, rank 0 waited %.3f s, reduction %.3f s\n",
+                result.imbalance, result.wait_seconds, result.reduce_seconds);
+  }
   return st.cancelled ? 130 : 0;
 }
 
@@ -193,7 +282,7 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
       g.scene.add_light(ImageInfiniteLight<S>(read_environment(job.env), job.env_scale));
     } else if (g.punctual_lights == 0) {
       // Emissive surfaces rarely light a whole model: they do not count.
-      if (!job.quiet)
+      if (!job.quiet && g_rank == 0)
         std::fprintf(stderr, "prism-render: the scene has no punctual light: adding a white environment\n");
       g.scene.add_light(UniformInfiniteLight<S>(RGB(1)));
     }
@@ -226,7 +315,7 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   gopt.shutter = job.shutter;
   try {
     auto g = prism::load_gltf<S>(path, gopt);
-    if (!job.quiet)
+    if (!job.quiet && g_rank == 0)
       for (const auto& w : g.warnings) std::fprintf(stderr, "prism-render: warning: %s\n", w.c_str());
     return run_gltf<S>(job, model, g);
   } catch (const prism::Error& e) {
@@ -234,9 +323,29 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   }
 }
 
+int run(int argc, char** argv);
+
 }  // namespace
 
 int main(int argc, char** argv) {
+#if defined(PRISM_HAS_MPI)
+  if (prism::mpi::launched_by_mpi()) {
+    prism::mpi::Session session(&argc, &argv);
+    g_rank = prism::mpi::rank();
+    g_ranks = prism::mpi::size();
+    int rc = run(argc, argv);
+    // A rank that failed before reaching the render still meets the others.
+    if (distributed() && !g_synced) sync_before_render(rc == 0 ? 2 : rc);
+    std::fflush(stdout);
+    return rc;
+  }
+#endif
+  return run(argc, argv);
+}
+
+namespace {
+
+int run(int argc, char** argv) {
   CLI::App app{"prism-render: physically based path tracing with prism"};
   std::string scene_path;
   Job job;
@@ -293,24 +402,39 @@ int main(int argc, char** argv) {
                  "weighing lights by their importance for each point) or auto (bvh from 8 lights with bounds, else "
                  "power)")
       ->check(CLI::IsMember({"auto", "power", "uniform", "bvh"}));
+  app.add_option("--split", job.split,
+                 "Under mpirun: how the ranks share the work: samples (each rank a range of every pixel's samples) "
+                 "or tiles (each rank every n-th tile)")
+      ->check(CLI::IsMember({"samples", "tiles"}));
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
+#if defined(PRISM_HAS_MPI)
+  // Threads per rank by default: the node's cores shared among its ranks.
+  // (Collective, so before anything can fail.)
+  int node_threads = distributed() ? prism::mpi::threads_per_rank(0) : 0;
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
-    std::printf("%s", app.help().c_str());
+    g_synced = true;
+    if (g_rank == 0) std::printf("%s", app.help().c_str());
     return 0;
   } catch (const CLI::ParseError& e) {
     std::string msg = e.what();
     for (auto& c : msg)
       if (c == '\n') c = ' ';
-    return fail(msg);
+    return fail_everywhere(msg);
   }
+#if defined(PRISM_HAS_MPI)
+  if (job.threads == 0 && distributed()) job.threads = node_threads;
+#endif
   if (job.outputs.empty()) job.outputs.push_back("default.png");
   if (job.aovs && std::none_of(job.outputs.begin(), job.outputs.end(),
                                [](const std::string& o) { return lowercase_extension(o) == ".exr"; }))
-    return fail("--aov needs an .exr output (--out image.exr)");
-  for (const auto& o : job.outputs)
-    if (auto err = check_output(o); !err.empty()) return fail(err);
+    return fail_everywhere("--aov needs an .exr output (--out image.exr)");
+  // Only rank 0 writes, so only its outputs are checked.
+  if (g_rank == 0)
+    for (const auto& o : job.outputs)
+      if (auto err = check_output(o); !err.empty()) return fail(err);
 
   if (!scene_path.empty()) {
     // glTF materials render exactly in RGB: spectral only when asked.
@@ -327,3 +451,5 @@ int main(int argc, char** argv) {
   }
   return spectral ? run_default<prism::Spectral>(job, "spectral") : run_default<prism::RGB>(job, "rgb");
 }
+
+}  // namespace

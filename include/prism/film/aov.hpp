@@ -78,11 +78,36 @@ class AovFilm {
     return p.weight == 0 ? 0 : Float(p.depth / p.weight);
   }
 
- private:
+  // Raw accumulators (row-major), for moving the AOVs between processes
+  // (render/mpi.hpp), and merging those of disjoint shares of a render.
   struct Pixel {
     double albedo[3] = {0, 0, 0}, normal[3] = {0, 0, 0};
     double depth = 0, weight = 0;
   };
+  std::vector<Pixel>& pixels() { return m_pixels; }
+  const std::vector<Pixel>& pixels() const { return m_pixels; }
+  bool xyz() const { return m_xyz; }
+  void merge_pixels(const Pixel* src, size_t first, size_t n) {
+    if (first > m_pixels.size() || n > m_pixels.size() - first) throw Error("AOV film: merged pixels out of range");
+    for (size_t i = 0; i < n; ++i) {
+      Pixel& d = m_pixels[first + i];
+      const Pixel& o = src[i];
+      for (int c = 0; c < 3; ++c) {
+        d.albedo[c] += o.albedo[c];
+        d.normal[c] += o.normal[c];
+      }
+      d.depth += o.depth;
+      d.weight += o.weight;
+    }
+  }
+  void merge(const AovFilm& other) {
+    if (other.m_width != m_width || other.m_height != m_height)
+      throw Error("AOV film: cannot merge films of different sizes");
+    m_xyz = other.m_xyz;
+    merge_pixels(other.m_pixels.data(), 0, other.m_pixels.size());
+  }
+
+ private:
   size_t index(int x, int y) const { return size_t(y) * size_t(m_width) + size_t(x); }
   int m_width = 0, m_height = 0;
   bool m_xyz = false;

@@ -101,6 +101,54 @@ class Film {
     m_splat.clear();
   }
 
+  // Raw accumulators, for moving a film between processes (render/mpi.hpp):
+  // one Pixel per pixel, row-major, and the splats (3 per pixel in the film's
+  // encoding, or none when nothing was splatted).
+  struct Pixel {
+    double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+    double weight = 0;
+    uint64_t count = 0;
+  };
+  std::vector<Pixel>& pixels() { return m_pixels; }
+  const std::vector<Pixel>& pixels() const { return m_pixels; }
+  std::vector<double>& splats() { return m_splat; }
+  const std::vector<double>& splats() const { return m_splat; }
+
+  // Adds another film's samples to this one: the films of disjoint shares of
+  // a render (RenderOptions::first_sample, tile_stride) merge into the whole
+  // render's, up to the order of summation. Adding films in a fixed order gives
+  // a bitwise reproducible result.
+  void merge(const Film& other) {
+    if (other.m_width != m_width || other.m_height != m_height)
+      throw Error("film: cannot merge a " + std::to_string(other.m_width) + "x" + std::to_string(other.m_height) +
+                  " film into a " + std::to_string(m_width) + "x" + std::to_string(m_height) + " one");
+    bool other_empty = true;
+    for (const Pixel& p : other.m_pixels)
+      if (p.count != 0) {
+        other_empty = false;
+        break;
+      }
+    if (other_empty && other.m_splat.empty()) return;
+    prepare(other.m_encoding);
+    merge_pixels(other.m_pixels.data(), 0, other.m_pixels.size());
+    if (!other.m_splat.empty()) add_splats(other.m_splat, 1.0);
+  }
+  // Adds n raw accumulators to pixels [first, first + n) (in the film's
+  // encoding; the caller checks that the sender's matches).
+  void merge_pixels(const Pixel* src, size_t first, size_t n) {
+    if (first > m_pixels.size() || n > m_pixels.size() - first) throw Error("film: merged pixels out of range");
+    for (size_t i = 0; i < n; ++i) {
+      Pixel& d = m_pixels[first + i];
+      const Pixel& o = src[i];
+      for (int c = 0; c < 3; ++c) {
+        d.sum[c] += o.sum[c];
+        d.sum_sq[c] += o.sum_sq[c];
+      }
+      d.weight += o.weight;
+      d.count += o.count;
+    }
+  }
+
  private:
   // The camera samples' estimate alone, in linear sRGB.
   RGB camera_pixel(int x, int y) const {
@@ -110,11 +158,6 @@ class Film {
     return m_encoding == FilmEncoding::xyz ? xyz_to_linear_srgb({v.r, v.g, v.b}) : v;
   }
 
-  struct Pixel {
-    double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
-    double weight = 0;
-    uint64_t count = 0;
-  };
   size_t index(int x, int y) const { return size_t(y) * size_t(m_width) + size_t(x); }
 
   int m_width = 0, m_height = 0;

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 #include "prism/cameras/orthographic.hpp"
@@ -38,6 +39,18 @@ struct RenderOptions {
   // When set, also filled with albedo, normal and depth per pixel (the same
   // size as the film; film/aov.hpp). Costs one more ray per camera sample.
   AovFilm* aovs = nullptr;
+  // A share of the work, for splitting one image among processes
+  // (render/mpi.hpp) or passes. Only samples [first_sample, first_sample +
+  // sample_count) of each pixel are taken (-1: up to spp); the sample index
+  // stays global, so its random numbers are those of the whole render, and
+  // the films of disjoint shares merge (Film::merge) into the whole render's
+  // up to summation order. Likewise only tiles t with t % tile_stride ==
+  // tile_offset are rendered. The caustic pass is split the same way: the
+  // light paths of those samples, and of those chunks of 4096 paths.
+  int first_sample = 0;
+  int sample_count = -1;
+  int tile_stride = 1;
+  int tile_offset = 0;
 };
 
 struct RenderStats {
@@ -66,18 +79,39 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
   Shutter shutter;
   if constexpr (requires { camera.shutter(); }) shutter = camera.shutter();
-  const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, tiles = tiles_x * tiles_y;
+  const int spp = std::max(0, opt.spp);
+  if (opt.first_sample < 0 || opt.first_sample > spp)
+    throw Error("render: first_sample " + std::to_string(opt.first_sample) + " is outside [0, spp = " +
+                std::to_string(spp) + "]");
+  const int s_begin = opt.first_sample;
+  const int s_end = opt.sample_count < 0 ? spp : opt.first_sample + opt.sample_count;
+  if (s_end > spp)
+    throw Error("render: samples [" + std::to_string(s_begin) + ", " + std::to_string(s_end) + ") exceed spp = " +
+                std::to_string(spp));
+  if (opt.tile_stride < 1 || opt.tile_offset < 0 || opt.tile_offset >= opt.tile_stride)
+    throw Error("render: tile_offset " + std::to_string(opt.tile_offset) + " is outside [0, tile_stride = " +
+                std::to_string(opt.tile_stride) + ")");
+  const int stride = opt.tile_stride, offset = opt.tile_offset;
+  const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, all_tiles = tiles_x * tiles_y;
+  // This share's tiles: offset, offset + stride, ...
+  const int tiles = all_tiles > offset ? (all_tiles - offset + stride - 1) / stride : 0;
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::max(1, std::min(threads, tiles));
+  threads = std::max(1, std::min(threads, std::max(1, tiles)));
 
   // The light-tracing pass for caustics, when the integrator has one and the
   // scene needs it (path.hpp): as many light paths as camera samples, in
-  // chunks taken from a counter like the tiles.
+  // chunks taken from a counter like the tiles. Light path i belongs to
+  // sample i / (w h), so a sample range owns a range of paths; a tile stride
+  // takes every stride-th chunk of it.
   bool caustics = false;
   if constexpr (requires { integrator.caustics_active(scene); }) caustics = integrator.caustics_active(scene);
-  const uint64_t light_paths = caustics ? uint64_t(w) * uint64_t(h) * uint64_t(std::max(0, opt.spp)) : 0;
+  const uint64_t pixels = uint64_t(w) * uint64_t(h);
+  const uint64_t light_paths = caustics ? pixels * uint64_t(spp) : 0;
+  const uint64_t lp_begin = caustics ? pixels * uint64_t(s_begin) : 0;
+  const uint64_t lp_end = caustics ? pixels * uint64_t(s_end) : 0;
   constexpr uint64_t chunk_size = 4096;
-  const int chunks = int((light_paths + chunk_size - 1) / chunk_size);
+  const int range_chunks = int((lp_end - lp_begin + chunk_size - 1) / chunk_size);
+  const int chunks = range_chunks > offset ? (range_chunks - offset + stride - 1) / stride : 0;
   const int total_work = tiles + chunks;
 
   std::atomic<int> next{0}, done{0}, next_chunk{0};
@@ -99,13 +133,14 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
         cancelled = true;
         break;
       }
-      int t = next.fetch_add(1);
-      if (t >= tiles) break;
+      int k = next.fetch_add(1);
+      if (k >= tiles) break;
+      int t = offset + k * stride;
       int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
       int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x)
-          for (int s = 0; s < opt.spp; ++s) {
+          for (int s = s_begin; s < s_end; ++s) {
             sampler.start_pixel_sample(x, y, s);
             // Fixed dimension order: wavelengths, filter, lens, time (only
             // when the shutter is open for an interval), then the integrator's.
@@ -143,9 +178,10 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
           if (caustics) cancelled = true;
           break;
         }
-        int c = next_chunk.fetch_add(1);
-        if (c >= chunks) break;
-        uint64_t i0 = uint64_t(c) * chunk_size, i1 = std::min(light_paths, i0 + chunk_size);
+        int k = next_chunk.fetch_add(1);
+        if (k >= chunks) break;
+        uint64_t c = uint64_t(offset) + uint64_t(k) * uint64_t(stride);
+        uint64_t i0 = lp_begin + c * chunk_size, i1 = std::min(lp_end, i0 + chunk_size);
         for (uint64_t i = i0; i < i1; ++i) {
           // Light path i draws its numbers from its own stream, disjoint from
           // the camera samples' (rows h..2h-1 of the sampler's pixel grid).
@@ -208,7 +244,12 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   }
 
   RenderStats st;
-  st.light_paths = cancelled ? 0 : light_paths;
+  uint64_t my_paths = 0;
+  for (int k = 0; k < chunks; ++k) {
+    uint64_t i0 = lp_begin + (uint64_t(offset) + uint64_t(k) * uint64_t(stride)) * chunk_size;
+    my_paths += std::min(lp_end, i0 + chunk_size) - i0;
+  }
+  st.light_paths = cancelled ? 0 : my_paths;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   st.samples = samples;
   st.rays = rays;
