@@ -186,8 +186,11 @@ class SceneAccel {
   }
 
   // opt.motion_segments: top-level trees over the motion's time range (0: the
-  // default, kDefaultMotionSegments); ignored when nothing moves.
-  static constexpr int kDefaultMotionSegments = 1;
+  // default, kDefaultMotionSegments: 4, within 11% of the best segment count
+  // for motions from 1/4 to 4 object sizes in bench/motion_bench.cpp, where
+  // one segment loses up to 2x; docs/motion_blur.md); ignored when nothing
+  // moves.
+  static constexpr int kDefaultMotionSegments = 4;
   void build(const BVHBuildOptions& opt = {}) {
     const int motion_segments = opt.motion_segments;
     m_mesh_accels.clear();
