@@ -25,6 +25,8 @@
 #include <variant>
 #include "prism/bxdfs/bxdf.hpp"
 #include "prism/bxdfs/microfacet.hpp"
+#include "prism/bxdfs/ms_compensation.hpp"
+#include "prism/sampling/warps.hpp"
 #include "prism/error.hpp"
 #include "prism/geometry/interaction.hpp"
 #include "prism/spectra/data/metals.hpp"
@@ -90,26 +92,54 @@ class ConductorBxDF {
   ConductorBxDF(const TrowbridgeReitz& distrib, const S& eta, const S& k)
       : m_distrib(distrib), m_eta(eta), m_k(k) {}
 
+  // Adds Kulla and Conty's multiple-scattering lobe (ms_compensation.hpp):
+  // a rough conductor then reflects the energy a single bounce loses.
+  void enable_multiple_scattering() {
+    m_ms = MultipleScattering<S>::make(m_distrib, [&](Float mu) { return fresnel_complex(mu, m_eta, m_k); });
+  }
+  bool multiple_scattering() const { return m_ms.active; }
+
   S eval(Vector3f wo, Vector3f wi, TransportMode) const {
     if (m_distrib.effectively_smooth()) return S{};
     S f;
     Float pdf;
-    return rough(wo, wi, &f, &pdf) ? f : S{};
+    if (!rough(wo, wi, &f, &pdf)) f = S{};
+    if (m_ms.active && same_hemisphere(wo, wi) && wo.z != 0 && wi.z != 0)
+      f = f + m_ms.scale * m_ms.white(abs_cos_theta(wo), abs_cos_theta(wi));
+    return f;
   }
   Float pdf(Vector3f wo, Vector3f wi, TransportMode) const {
     if (m_distrib.effectively_smooth()) return 0;
     Float pdf;
-    return rough(wo, wi, nullptr, &pdf) ? pdf : 0;
+    if (!rough(wo, wi, nullptr, &pdf)) pdf = 0;
+    if (!m_ms.active) return pdf;
+    if (!same_hemisphere(wo, wi) || wo.z == 0) return 0;
+    Float p = ms_probability(wo);
+    return (1 - p) * pdf + p * abs_cos_theta(wi) * inv_pi;
   }
 
   // Smooth: the mirror direction (uc and u unused). Rough: a visible normal
   // from u, and its mirror reflection (uc unused).
-  std::optional<BSDFSample<S>> sample(Vector3f wo, Float, Point2f u, TransportMode) const {
+  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode) const {
     if (wo.z == 0) return std::nullopt;
     if (m_distrib.effectively_smooth()) {
       Vector3f wi(-wo.x, -wo.y, wo.z);
       Float c = abs_cos_theta(wi);
       return BSDFSample<S>{fresnel_complex(c, m_eta, m_k) / c, wi, 1, BxDFFlags::specular_reflection};
+    }
+    if (m_ms.active) {
+      // The lobes by their share of the energy, chosen with uc.
+      Vector3f wi;
+      if (uc < ms_probability(wo)) {
+        wi = sample_cosine_hemisphere(u);
+        if (wo.z < 0) wi.z = -wi.z;
+      } else {
+        wi = reflect(wo, m_distrib.sample_wm(wo, u));
+      }
+      if (!same_hemisphere(wo, wi) || wi.z == 0) return std::nullopt;
+      Float pdf_mix = pdf(wo, wi, TransportMode::radiance);
+      if (!(pdf_mix > 0)) return std::nullopt;
+      return BSDFSample<S>{eval(wo, wi, TransportMode::radiance), wi, pdf_mix, BxDFFlags::glossy_reflection};
     }
     Vector3f wm = m_distrib.sample_wm(wo, u);
     Vector3f wi = reflect(wo, wm);
@@ -145,8 +175,16 @@ class ConductorBxDF {
     return true;
   }
 
+  // The probability of sampling the compensation lobe: a function of wo only,
+  // so that pdf() recomputes the sampler's mixture.
+  Float ms_probability(const Vector3f& wo) const {
+    Float mu = abs_cos_theta(wo);
+    return m_ms.probability(mu, fresnel_complex(mu, m_eta, m_k));
+  }
+
   TrowbridgeReitz m_distrib;
   S m_eta{}, m_k{};
+  MultipleScattering<S> m_ms;
 };
 
 // A conductor's parameters: where eta and k come from, the roughness (alpha,
@@ -179,6 +217,8 @@ struct ConductorMaterial {
   std::variant<Reflectance, EtaK, Spectra> source{Reflectance{}};
   MicrofacetRoughness roughness{};
   std::string name = "conductor";
+  // Kulla-Conty energy compensation for rough lobes (ms_compensation.hpp).
+  bool multiple_scattering = false;
 
   // Dominant wavelengths (nm) of the Rec.709 / sRGB red, green and blue
   // primaries, where RGB mode evaluates a measured eta.
@@ -287,7 +327,9 @@ struct bxdf_traits<ConductorBxDF<S>> {
         k = s.rgb_k;
       }
     }
-    return ConductorBxDF<S>(distrib, eta, k);
+    ConductorBxDF<S> bxdf(distrib, eta, k);
+    if (m.multiple_scattering) bxdf.enable_multiple_scattering();
+    return bxdf;
   }
 
   // Throws prism::Error, prefixed by `where` and naming the material, on a
