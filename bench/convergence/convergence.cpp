@@ -10,10 +10,12 @@
 // (RGB, spectral; default scene only).
 //
 // Each scene and colour model has one reference: the path integrator with the
-// independent sampler at a high sample count and a seed no method uses,
+// independent sampler at a high sample count, the mean of two halves with
+// independent seeds no method uses (their difference estimates the
+// reference's own relMSE, the noise floor every measured relMSE includes),
 // stored as bench/convergence/cache/<scene>_<model>_<W>x<H>_spp<N>_seed<S>.exr
-// (the spp and seed in the name; a sidecar .txt repeats them with the render
-// time) and reused when present. Spectral methods are measured against the
+// (the spp and first seed in the name; a sidecar .txt repeats them with the
+// render time and the noise floor) and reused when present. Spectral methods are measured against the
 // spectral reference, RGB ones against the RGB reference: each converges to
 // its own colour model's image (RGB refracts at the d line only, so its limit
 // differs from the spectral one where the prism disperses; the program prints
@@ -26,8 +28,8 @@
 // Writes bench/results/convergence.csv (scene, method, spp, seconds, relmse,
 // relmae) and bench/results/convergence_slopes.csv: per method the
 // least-squares slope of log relMSE against log seconds (ideal -1 for an
-// unbiased Monte Carlo estimator at constant cost per sample), the same
-// against log spp, the slope of log relMAE against log seconds (ideal -1/2),
+// unbiased Monte Carlo estimator at constant cost per sample), the same with
+// the reference's noise floor subtracted, the same against log spp, the slope of log relMAE against log seconds (ideal -1/2),
 // and relMSE x seconds at 256 spp (lower is better at equal time).
 //
 // Usage: convergence_bench [out_dir=bench/results] [shared=../shared]
@@ -77,14 +79,17 @@ Pixels render_image(const Scene& scene, const Camera& cam, Integrator integ, Sam
   return px;
 }
 
-double rel_mse(const Pixels& v, const Pixels& ref) {
+// relMSE of a against b with the denominators of ref.
+double rel_mse_between(const Pixels& a, const Pixels& b, const Pixels& ref) {
   double s = 0;
-  for (size_t i = 0; i < v.size(); ++i) {
-    double d = double(v[i]) - double(ref[i]);
+  for (size_t i = 0; i < a.size(); ++i) {
+    double d = double(a[i]) - double(b[i]);
     s += d * d / (double(ref[i]) * double(ref[i]) + 1e-2);
   }
-  return s / double(v.size());
+  return s / double(a.size());
 }
+
+double rel_mse(const Pixels& v, const Pixels& ref) { return rel_mse_between(v, ref, ref); }
 
 double rel_mae(const Pixels& v, const Pixels& ref) {
   double s = 0, r = 0;
@@ -113,36 +118,58 @@ struct Harness {
   std::ofstream csv, slopes;
 
   // The reference of `key` (scene and colour model): read from the cache, or
-  // rendered (path integrator, independent sampler, ref_seed) and cached.
+  // rendered (path integrator, independent sampler) and cached. It is the mean
+  // of two halves of ref_spp / 2 spp with independent seeds; their relMSE
+  // against each other estimates the reference's own noise: E (A - B)^2 is
+  // twice a half's variance, four times the whole's, so the reference adds
+  // about relMSE(A, B) / 4 to every relMSE measured against it (`floor`).
+  struct Reference {
+    Pixels px;
+    double floor = 0;  // the reference's own relMSE, estimated
+  };
   template <class Scene, class Camera>
-  Pixels reference(const std::string& key, const Scene& scene, const Camera& cam) {
+  Reference reference(const std::string& key, const Scene& scene, const Camera& cam) {
     const std::string stem = cache_dir + "/" + key + "_" + std::to_string(W) + "x" + std::to_string(H) + "_spp" +
                              std::to_string(ref_spp) + "_seed" + std::to_string(ref_seed);
-    if (std::filesystem::exists(stem + ".exr")) {
+    Reference r;
+    if (std::filesystem::exists(stem + ".exr") && std::filesystem::exists(stem + ".txt")) {
       Image img = read_exr(stem + ".exr");
-      if (img.width == W && img.height == H) {
-        std::printf("%s: reference from %s.exr\n", key.c_str(), stem.c_str());
-        return img.rgb;
+      std::ifstream side(stem + ".txt");
+      std::string word;
+      bool have_floor = false;
+      while (side >> word)
+        if (word == "floor_relmse") have_floor = bool(side >> r.floor);
+      if (img.width == W && img.height == H && have_floor) {
+        std::printf("%s: reference from %s.exr (noise floor relMSE %.3g)\n", key.c_str(), stem.c_str(), r.floor);
+        r.px = std::move(img.rgb);
+        return r;
       }
     }
-    std::printf("%s: rendering the reference at %d spp...\n", key.c_str(), ref_spp);
+    std::printf("%s: rendering the reference at %d spp (two halves)...\n", key.c_str(), ref_spp);
     std::fflush(stdout);
-    double sec = 0;
-    Pixels px = render_image(scene, cam, Integrator::path, SamplerKind::independent, ref_spp, ref_seed, &sec);
+    double sec_a = 0, sec_b = 0;
+    const int half = std::max(1, ref_spp / 2);
+    Pixels a = render_image(scene, cam, Integrator::path, SamplerKind::independent, half, ref_seed, &sec_a);
+    Pixels b = render_image(scene, cam, Integrator::path, SamplerKind::independent, half, ref_seed + 1, &sec_b);
+    r.px.resize(a.size());
+    for (size_t i = 0; i < a.size(); ++i) r.px[i] = 0.5f * (a[i] + b[i]);
+    r.floor = rel_mse_between(a, b, r.px) / 4;
     std::filesystem::create_directories(cache_dir);
-    write_exr(stem + ".exr", Image{W, H, px});
+    write_exr(stem + ".exr", Image{W, H, r.px});
     std::ofstream side(stem + ".txt");
-    side << "scene " << key << "\nwidth " << W << "\nheight " << H << "\nspp " << ref_spp << "\nseed " << ref_seed
-         << "\nintegrator path\nsampler independent\nseconds " << sec << "\n";
-    std::printf("%s: reference in %.1f s\n", key.c_str(), sec);
-    return px;
+    side << "scene " << key << "\nwidth " << W << "\nheight " << H << "\nspp " << 2 * half << "\nseeds " << ref_seed
+         << " " << ref_seed + 1 << "\nintegrator path\nsampler independent\nseconds " << sec_a + sec_b
+         << "\nfloor_relmse " << r.floor << "\n";
+    std::printf("%s: reference in %.1f s, noise floor relMSE %.3g\n", key.c_str(), sec_a + sec_b, r.floor);
+    return r;
   }
 
   // Every integrator x sampler on one scene object; `suffix` names the rest of
   // the method (light selection, colour model).
   template <class Scene, class Camera>
   void run_methods(const std::string& scene_name, const std::string& suffix, const Scene& scene, const Camera& cam,
-                   const Pixels& ref, bool with_bsdf = true) {
+                   const Reference& reference, bool with_bsdf = true) {
+    const Pixels& ref = reference.px;
     const std::pair<Integrator, const char*> integrators[] = {{Integrator::path, "path"}, {Integrator::bsdf, "bsdf"}};
     const std::pair<SamplerKind, const char*> samplers[] = {{SamplerKind::independent, "independent"},
                                                             {SamplerKind::sobol, "sobol"}};
@@ -150,7 +177,7 @@ struct Harness {
       if (integ == Integrator::bsdf && !with_bsdf) continue;
       for (auto [k, kname] : samplers) {
         const std::string method = std::string(iname) + "/" + kname + suffix;
-        std::vector<double> secs, mses, maes, spps;
+        std::vector<double> secs, mses, maes, spps, corrected;
         for (int spp = 1; spp <= max_spp; spp *= 2) {
           const int seeds = std::max(1, 16 / spp);
           double e = 0, a = 0, best = 1e30;
@@ -163,15 +190,18 @@ struct Harness {
           }
           csv << scene_name << "," << method << "," << spp << "," << best << "," << e << "," << a << "\n";
           secs.push_back(best), mses.push_back(e), maes.push_back(a), spps.push_back(spp);
+          corrected.push_back(e - reference.floor);
         }
         csv.flush();
         const double s_time = loglog_slope(secs, mses), s_spp = loglog_slope(spps, mses),
+                     s_corr = loglog_slope(secs, corrected),
                      s_mae = loglog_slope(secs, maes), merit = mses.back() * secs.back();
-        std::printf("  %-34s slope relMSE/s %6.3f  /spp %6.3f  relMAE/s %6.3f  256 spp: %.3f s relMSE %.4g "
-                    "relMAE %.4f relMSE x s %.4g\n",
-                    method.c_str(), s_time, s_spp, s_mae, secs.back(), mses.back(), maes.back(), merit);
+        std::printf("  %-28s slope relMSE/s %6.3f (less floor %6.3f) /spp %6.3f  relMAE/s %6.3f  256 spp: %.3f s "
+                    "relMSE %.4g relMAE %.4f relMSE x s %.4g\n",
+                    method.c_str(), s_time, s_corr, s_spp, s_mae, secs.back(), mses.back(), maes.back(), merit);
         std::fflush(stdout);
-        slopes << scene_name << "," << method << "," << s_time << "," << s_spp << "," << s_mae << "," << secs.back()
+        slopes << scene_name << "," << method << "," << s_time << "," << s_corr << "," << s_spp << "," << s_mae << ","
+               << reference.floor << "," << secs.back()
                << "," << mses.back() << "," << maes.back() << "," << merit << "\n";
         slopes.flush();
       }
@@ -180,12 +210,12 @@ struct Harness {
 };
 
 template <class S>
-void default_scene(Harness& h, const char* model, Pixels* ref_out) {
+void default_scene(Harness& h, const char* model, Harness::Reference* ref_out) {
   Scene<S> scene;
   build_cornell_box(scene);
   scene.build();
   const auto cam = default_camera(W, H);
-  Pixels ref = h.reference(std::string("default_") + model, scene, cam);
+  Harness::Reference ref = h.reference(std::string("default_") + model, scene, cam);
   h.run_methods("default", std::string("/") + model, scene, cam, ref);
   *ref_out = std::move(ref);
 }
@@ -206,17 +236,18 @@ int main(int argc, char** argv) {
     return 1;
   }
   h.csv << "scene,method,spp,seconds,relmse,relmae\n";
-  h.slopes << "scene,method,slope_relmse_seconds,slope_relmse_spp,slope_relmae_seconds,seconds_256,relmse_256,"
+  h.slopes << "scene,method,slope_relmse_seconds,slope_relmse_less_floor_seconds,slope_relmse_spp,slope_relmae_seconds,"
+              "ref_floor_relmse,seconds_256,relmse_256,"
               "relmae_256,relmse_x_seconds_256\n";
   const auto t0 = std::chrono::steady_clock::now();
 
   // The default scene, RGB and spectral.
   std::printf("default scene, %dx%d\n", W, H);
-  Pixels ref_rgb, ref_spectral;
+  Harness::Reference ref_rgb, ref_spectral;
   default_scene<RGB>(h, "rgb", &ref_rgb);
   default_scene<Spectral>(h, "spectral", &ref_spectral);
   std::printf("  RGB reference against the spectral one: relMSE %.4g relMAE %.4f (the colour model's bias)\n",
-              rel_mse(ref_rgb, ref_spectral), rel_mae(ref_rgb, ref_spectral));
+              rel_mse(ref_rgb.px, ref_spectral.px), rel_mae(ref_rgb.px, ref_spectral.px));
 
   // The many-lights scene: power against BVH light selection (the BSDF
   // integrator never selects a light, so it runs once).
@@ -230,7 +261,7 @@ int main(int argc, char** argv) {
     power.build();
     bvh.build();
     const auto cam = many_lights_camera(W, H);
-    Pixels ref = h.reference("many_lights_rgb", bvh, cam);
+    Harness::Reference ref = h.reference("many_lights_rgb", bvh, cam);
     h.run_methods("many_lights", "/bvh", bvh, cam, ref);
     h.run_methods("many_lights", "/power", power, cam, ref, false);
   }
@@ -244,7 +275,7 @@ int main(int argc, char** argv) {
     g.scene.add_light(ImageInfiniteLight<RGB>(read_environment(env), 1));
     g.scene.build();
     const auto cam = gltf_framing_camera(g.bounds, W, H);
-    Pixels ref = h.reference("env_spheres_rgb", g.scene, cam);
+    Harness::Reference ref = h.reference("env_spheres_rgb", g.scene, cam);
     h.run_methods("env_spheres", "/rgb", g.scene, cam, ref);
   } else {
     std::printf("convergence_bench: %s or %s not found: the environment-lit scene is skipped\n", model.c_str(),
