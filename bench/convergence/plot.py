@@ -1,0 +1,64 @@
+#!/usr/bin/env python3
+"""Draws the convergence charts from bench/results/convergence.csv and
+convergence_slopes.csv (written by convergence_bench): one log-log chart per
+scene, relMAE against seconds, one line per method, each method's
+least-squares slope of log relMSE against log seconds in its legend label
+(ideal -1). Uses gnuplot (Debian: gnuplot-nox); standard library only.
+Usage: plot.py [results_dir=bench/results] [images_dir=docs/images]"""
+import csv
+import os
+import subprocess
+import sys
+import tempfile
+
+results = sys.argv[1] if len(sys.argv) > 1 else "bench/results"
+images = sys.argv[2] if len(sys.argv) > 2 else "docs/images"
+os.makedirs(images, exist_ok=True)
+
+points = {}  # scene -> method -> [(seconds, relmae)]
+with open(os.path.join(results, "convergence.csv")) as f:
+    for r in csv.DictReader(f):
+        points.setdefault(r["scene"], {}).setdefault(r["method"], []).append(
+            (float(r["seconds"]), float(r["relmae"])))
+slopes = {}
+with open(os.path.join(results, "convergence_slopes.csv")) as f:
+    for r in csv.DictReader(f):
+        slopes[(r["scene"], r["method"])] = float(r["slope_relmse_seconds"])
+
+titles = {
+    "default": "Default scene (Cornell box, SF11 prism, gold and frosted spheres), 64x64",
+    "many_lights": "Many-lights scene (1000 small emitters), 64x64",
+    "env_spheres": "MetalRoughSpheresNoTextures under chinese_garden HDR, 64x64",
+}
+colours = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
+
+with tempfile.TemporaryDirectory() as tmp:
+    for scene, methods in points.items():
+        plots = []
+        for i, (method, pts) in enumerate(sorted(methods.items())):
+            dat = os.path.join(tmp, f"{scene}_{i}.dat")
+            with open(dat, "w") as d:
+                for s, e in sorted(pts):
+                    d.write(f"{s} {e}\n")
+            slope = slopes.get((scene, method), float("nan"))
+            dash = 1 if method.startswith("path") else 2
+            pt = 7 if "/sobol" in method else 5
+            label = f"{method}  (relMSE slope {slope:+.2f})"
+            plots.append(f"'{dat}' using 1:2 with linespoints lw 2 dt {dash} pt {pt} ps 0.8 "
+                         f"lc rgb '{colours[i % len(colours)]}' title '{label}'")
+        out = os.path.join(images, f"convergence_{scene}.png")
+        script = "\n".join([
+            "set terminal pngcairo size 900,650 font 'DejaVu Sans,10' noenhanced",
+            f"set output '{out}'",
+            f"set title \"{titles.get(scene, scene)}\\nerror against render time; legend: least-squares slope of log relMSE against log time (ideal -1)\"",
+            "set logscale xy",
+            "set xlabel 'render time (s, 2 threads, loaded machine)'",
+            "set ylabel 'relative mean absolute error'",
+            "set grid xtics ytics mxtics mytics",
+            "set key inside bottom left box opaque font ',9' spacing 1.1",
+            "set format x '%g'",
+            "set format y '%g'",
+            "plot " + ", \\\n  ".join(plots),
+        ])
+        subprocess.run(["gnuplot"], input=script, text=True, check=True)
+        print(f"wrote {out}")
