@@ -144,7 +144,9 @@ TEST_CASE("triangle light NEE: closed-form irradiance, pdf_li agrees, lower vari
     ctx.p = at;
     double omega = spherical_triangle_area(t.p0 - at, t.p1 - at, t.p2 - at);
     bool spherical = light.spherical_solid_angle(at) > 0;
-    CHECK(spherical == (omega >= TriangleAreaLight<RGB>::kMinSphericalSolidAngle));
+    // Solid-angle sampling needs a large enough solid angle and a light
+    // whose distance varies enough over it; the far receiver has neither.
+    if (omega < TriangleAreaLight<RGB>::kMinSphericalSolidAngle) CHECK_FALSE(spherical);
     double ref = polygon_irradiance(t, at, n);
     PCG32 rng(3, 4);
     const int count = 100000;

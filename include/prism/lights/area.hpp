@@ -113,6 +113,9 @@ class TriangleAreaLight {
   // almost on the light's plane.
   static constexpr double kMinSphericalSolidAngle = 1e-4;
   static constexpr double kMaxSphericalSolidAngle = 6.2;
+  // And only where the light's distance varies by more than this factor
+  // over it (see spherical_solid_angle).
+  static constexpr Float kSphericalDistanceRatio = 2;
 
   // The solid angle the light subtends at p if sample_li samples it by solid
   // angle from there, else 0 (it samples by area).
@@ -123,6 +126,15 @@ class TriangleAreaLight {
     // receivers out without the exact formula (the decision is the same).
     Float d = distance(p, m_centre) - m_radius;
     if (d > 0 && double(m_area) < kMinSphericalSolidAngle * double(d) * double(d)) return 0;
+    // Area sampling's density per solid angle is d^3 / (A h) at distance d
+    // (h the distance to the light's plane): when the farthest corner is
+    // less than kSphericalDistanceRatio times as far as the nearest point
+    // could be, that density varies by less than the ratio cubed over the
+    // light, area sampling is nearly as good and costs a fraction.
+    Float h = std::abs(dot(m_n, m_p[0] - p));
+    Float d_near = std::max(h, d);
+    Float d_far = std::max({distance(p, m_p[0]), distance(p, m_p[1]), distance(p, m_p[2])});
+    if (!(d_far > kSphericalDistanceRatio * d_near)) return 0;
     double omega = spherical_triangle_area(m_p[0] - p, m_p[1] - p, m_p[2] - p);
     return omega >= kMinSphericalSolidAngle && omega <= kMaxSphericalSolidAngle ? omega : 0;
   }
