@@ -12,7 +12,8 @@
 // for more than 99.9% of the rays, otherwise a warning is printed.
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
-// Run from the project root; writes bench/results/traversal.csv by default.
+// Run from the project root; writes bench/results/traversal.csv by default, and
+// watertight.csv (edge rays: misses of each library) beside it.
 #include <embree3/rtcore.h>
 #ifdef PRISM_BENCH_HAS_GLTF
 #include <tiny_gltf.h>
@@ -399,6 +400,57 @@ void occluded_embree(RTCScene s, const std::vector<BenchRay>& rays, int threads,
   });
 }
 
+// ------------------------------------------------------- watertightness
+
+// Rays aimed exactly at the shared vertices and (as nearly as floats allow) at
+// points on the shared edges of a closed mesh, from outside its bounding
+// sphere: every one must hit something, so a miss is a ray that slipped
+// through a crack between triangles. Half the rays go to vertices, half to
+// edge points. Counts the misses of prism and of Embree (default, non-robust
+// build) on the same rays.
+struct WatertightRow {
+  std::string mesh;
+  size_t rays, prism_misses, embree_misses;
+};
+
+WatertightRow run_watertight(const std::string& name, const TriangleMesh& mesh, size_t count) {
+  SceneAccel prism_scene;
+  prism_scene.add_mesh_instance(prism_scene.add_mesh(mesh));
+  prism_scene.build();
+  EmbreeScene em(mesh, 2);
+  em.build();
+  Bounds3f b = prism_scene.bounds();
+  Point3f c = b.centroid();
+  Float far = 2 * length(b.diagonal());
+  std::vector<BenchRay> rays;
+  rays.reserve(count);
+  PCG32 rng(7, 0xed9e);
+  size_t ntri = mesh.triangle_count();
+  for (size_t i = 0; i < count; ++i) {
+    size_t t = std::min(ntri - 1, size_t(rng.next_float() * Float(ntri)));
+    int k = std::min(2, int(rng.next_float() * 3));
+    Point3f p0 = mesh.positions[mesh.indices[3 * t + size_t(k)]];
+    Point3f p1 = mesh.positions[mesh.indices[3 * t + size_t((k + 1) % 3)]];
+    Float u = rng.next_float();
+    Point3f target = i % 2 == 0 ? p0 : p0 + (p1 - p0) * u;
+    // From outside, roughly from the direction of the target as seen from the centre.
+    Vector3f dir = normalize(target - c) + sample_uniform_sphere({rng.next_float(), rng.next_float()}) * 0.5f;
+    Point3f o = c + normalize(dir) * far;
+    rays.push_back({o, normalize(target - o), infinity});
+  }
+  std::vector<HitRecord> hp, he;
+  trace_prism(prism_scene, rays, 2, hp);
+  trace_embree(em.scene, rays, 2, he);
+  WatertightRow row{name, count, 0, 0};
+  for (size_t i = 0; i < count; ++i) {
+    row.prism_misses += hp[i].t == infinity;
+    row.embree_misses += he[i].t == infinity;
+  }
+  std::printf("  watertight %s: %zu rays at shared vertices and edges: prism %zu misses, embree %zu misses\n",
+              name.c_str(), count, row.prism_misses, row.embree_misses);
+  return row;
+}
+
 // ------------------------------------------------------------ the driver
 
 struct Options {
@@ -408,6 +460,12 @@ struct Options {
   std::string out = "bench/results/traversal.csv";
   std::string gltf = "../shared/scenes/MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb";
 };
+
+struct InstanceRow {
+  std::string name;
+  double direct, identity, rotated;  // Mrays/s
+};
+std::vector<InstanceRow> g_instance_rows;
 
 struct CsvRow {
   std::string name;
@@ -487,11 +545,14 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     rows.push_back({"build_" + case_name, ntri, th, double(ntri) / mp * 1e-6, double(ntri) / me * 1e-6, me / mp});
     per.push_back({th, std::move(em)});
   }
-  const auto& nodes = prism_scene.mesh_accels()[0].bvh().nodes();
+  const MeshAccel& ma = prism_scene.mesh_accels()[0];
+  const auto& nodes = ma.bvh().nodes();
   size_t leaves = 0;
   for (const auto& n : nodes) leaves += n.is_leaf();
-  std::printf("  prism BVH: %zu nodes, %zu leaves, %.2f triangles per leaf\n", nodes.size(), leaves,
-              double(ntri) / double(leaves));
+  std::printf("  prism BVH: %zu binary nodes, %zu wide nodes, %zu leaves, %.2f triangles per leaf, %.1f bytes per "
+              "triangle (binary tree, wide nodes, leaf order, triangle packets)\n",
+              nodes.size(), ma.bvh().wide_node_count(), leaves, double(ntri) / double(leaves),
+              double(ma.memory_bytes()) / double(ntri));
 
   // Ray sets, all derived from prism's primary hits (deterministic).
   Bounds3f bounds = prism_scene.bounds();
@@ -588,6 +649,50 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
       rows.push_back({s.name, ntri, pt.threads, mp, me, mp / me});
     }
   }
+
+  // The two-level BVH's cost for one instance: incoherent rays, one thread,
+  // through the mesh's own BVH (MeshAccel), through SceneAccel with the mesh
+  // as its one identity instance, and with the mesh under a rotation (rays
+  // rotated alike, so every set finds the same hits).
+  {
+    Transform xf = rotate(0.7f, {0.3f, 1, -0.2f});
+    SceneAccel rotated;
+    rotated.add_mesh_instance(rotated.add_mesh(mesh), xf);
+    rotated.build();
+    std::vector<BenchRay> world = incoherent;
+    for (BenchRay& r : world) {
+      r.o = xf(r.o);
+      r.d = xf(r.d);
+    }
+    std::vector<double> td, ti, tr;
+    std::vector<HitRecord> hr;
+    for (int r = 0; r < opt.reps; ++r) {
+      double t0 = now_seconds();
+      hr.assign(incoherent.size(), {});
+      parallel_for(incoherent.size(), 1, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+          Float t = incoherent[i].t_max;
+          TriangleHit h{};
+          uint32_t tri = 0;
+          if (ma.intersect(incoherent[i].o, incoherent[i].d, &t, &h, &tri)) hr[i] = {t, tri};
+        }
+      });
+      double t1 = now_seconds();
+      trace_prism(prism_scene, incoherent, 1, hr);
+      double t2 = now_seconds();
+      trace_prism(rotated, world, 1, hr);
+      double t3 = now_seconds();
+      td.push_back(t1 - t0);
+      ti.push_back(t2 - t1);
+      tr.push_back(t3 - t2);
+    }
+    double n = double(incoherent.size()) * 1e-6;
+    double md = n / median(td), mi = n / median(ti), mr = n / median(tr);
+    std::printf("  two-level, incoherent, threads=1: MeshAccel %.2f Mrays/s, one identity instance %.2f (%.3fx), "
+                "one rotated instance %.2f (%.3fx)\n",
+                md, mi, mi / md, mr, mr / md);
+    g_instance_rows.push_back({case_name, md, mi, mr});
+  }
 }
 
 }  // namespace
@@ -631,7 +736,10 @@ int main(int argc, char** argv) {
               RTC_VERSION_MINOR, RTC_VERSION_PATCH, opt.reps, opt.res, opt.res);
   std::vector<CsvRow> rows;
 
-  run_case("procedural", make_displaced_sphere(289), {0.55f, 0.35f, 0.75f}, opt, rows);
+  TriangleMesh sphere = make_displaced_sphere(289);
+  run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
+  std::vector<WatertightRow> wt;
+  wt.push_back(run_watertight("procedural", sphere, 1000000));
 
 #ifdef PRISM_BENCH_HAS_GLTF
   if (fs::exists(opt.gltf)) {
@@ -659,5 +767,20 @@ int main(int argc, char** argv) {
     std::fprintf(f, "%s,%zu,%d,%.3f,%.3f,%.3f\n", r.name.c_str(), r.triangles, r.threads, r.prism, r.embree, r.ratio);
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
+  fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
+  if (FILE* w = std::fopen(inst_out.string().c_str(), "w")) {
+    std::fprintf(w, "case,threads,meshaccel_mrays,identity_instance_mrays,rotated_instance_mrays\n");
+    for (const auto& r : g_instance_rows)
+      std::fprintf(w, "%s,1,%.3f,%.3f,%.3f\n", r.name.c_str(), r.direct, r.identity, r.rotated);
+    std::fclose(w);
+    std::printf("wrote %s\n", inst_out.string().c_str());
+  }
+  fs::path wt_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "watertight.csv";
+  if (FILE* w = std::fopen(wt_out.string().c_str(), "w")) {
+    std::fprintf(w, "mesh,rays,prism_misses,embree_misses\n");
+    for (const auto& r : wt) std::fprintf(w, "%s,%zu,%zu,%zu\n", r.mesh.c_str(), r.rays, r.prism_misses, r.embree_misses);
+    std::fclose(w);
+    std::printf("wrote %s\n", wt_out.string().c_str());
+  }
   return 0;
 }

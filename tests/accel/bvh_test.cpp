@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <sstream>
 #include <string>
@@ -490,4 +491,122 @@ TEST_CASE("SceneAccel occluded agrees with intersect through instances", "[accel
   INFO("hits " << hits << " of " << n);
   CHECK(disagree == 0);
   CHECK(hits > n / 20);
+}
+
+TEST_CASE("a deforming mesh after refit gives the hits of a rebuild", "[accel][bvh][refit]") {
+  PCG32 rng(9, 0xb0b);
+  Soup s = random_soup(3000, rng);
+  TriangleMesh mesh = s.mesh();
+  MeshAccel refitted(mesh, BVHBuildOptions{});
+  BVH bvh = BVH::build(s.bounds());
+  // Move every vertex (triangles stretch, shrink and swap places locally):
+  // the old tree stays valid only through its refitted boxes.
+  for (Point3f& p : s.v) p = p + Vector3f{std::sin(p.y), 0.5f * std::cos(p.z), uniform(rng, -1, 1)};
+  mesh.positions = s.v;
+  refitted.refit(mesh);
+  bvh.refit([&](size_t i) {
+    return union_bounds(union_bounds(Bounds3f(s.v[3 * i]), s.v[3 * i + 1]), s.v[3 * i + 2]);
+  });
+  report(compare(s, bvh, &refitted, 4000, rng));
+  // The same answers as a MeshAccel built over the moved mesh.
+  MeshAccel rebuilt(mesh, BVHBuildOptions{});
+  size_t differ = 0;
+  for (int i = 0; i < 4000; ++i) {
+    Ray r = random_ray(rng, s);
+    Float ta = infinity, tb = infinity;
+    TriangleHit ha{}, hb{};
+    uint32_t a = 0, b = 0;
+    bool hita = refitted.intersect(r.o, r.d, &ta, &ha, &a), hitb = rebuilt.intersect(r.o, r.d, &tb, &hb, &b);
+    if (hita != hitb || (hita && ta != tb)) ++differ;
+  }
+  CHECK(differ == 0);
+  // A mesh with another triangle count is refused, not read out of bounds.
+  TriangleMesh smaller = mesh;
+  smaller.indices.resize(smaller.indices.size() - 3);
+  CHECK_THROWS_AS(refitted.refit(smaller), Error);
+}
+
+TEST_CASE("SceneAccel refit_mesh moves a mesh and its instances", "[accel][scene][refit]") {
+  PCG32 rng(10, 0xb0b);
+  Soup s = random_soup(500, rng);
+  SceneAccel accel;
+  uint32_t m = accel.add_mesh(s.mesh());
+  accel.add_mesh_instance(m);
+  accel.add_mesh_instance(m, translate({30, 0, 0}));
+  accel.build();
+  std::vector<Point3f> moved = s.v;
+  for (Point3f& p : moved) p = p + Vector3f{0, 0, 100};
+  accel.refit_mesh(m, moved);
+  // The old place is empty, the new one is hit, through both instances.
+  Ray down{{0, 0, 50}, {0, 0, -1}, 0};
+  CHECK_FALSE(accel.occluded(down, 40));  // nothing left between z = 10 and z = 50
+  size_t hits_old = 0, hits_new = 0;
+  for (int i = 0; i < 2000; ++i) {
+    Point3f o{uniform(rng, -10, 40), uniform(rng, -10, 10), -50};
+    if (accel.intersect(Ray{o, {0, 0, 1}, 0}, 60)) ++hits_old;
+    if (accel.intersect(Ray{o, {0, 0, 1}, 0})) ++hits_new;
+  }
+  CHECK(hits_old == 0);
+  CHECK(hits_new > 100);
+  CHECK_THROWS_AS(accel.refit_mesh(m, std::vector<Point3f>(3)), Error);
+  CHECK_THROWS_AS(accel.refit_mesh(7, moved), Error);
+}
+
+TEST_CASE("degenerate triangles build a bounded tree and never corrupt hits", "[accel][bvh][degenerate]") {
+  // Ordinary triangles mixed with zero-area ones (coincident and collinear
+  // vertices), triangles with NaN or infinite vertices, and a large
+  // coplanar sheet: the build finishes, every triangle is in the tree (none
+  // silently dropped), depth is bounded, and hits equal brute force.
+  PCG32 rng(11, 0xb0b);
+  Soup s = random_soup(1500, rng);
+  const Float nan = std::numeric_limits<Float>::quiet_NaN();
+  for (int i = 0; i < 200; ++i) {
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    Vector3f d{uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1)};
+    s.v.insert(s.v.end(), {a, a, a});                  // a point
+    s.v.insert(s.v.end(), {a, a + d, a + d * 2.0f});   // a segment
+  }
+  for (int i = 0; i < 50; ++i) {
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    s.v.insert(s.v.end(), {a, Point3f{nan, a.y, a.z}, a + Vector3f{1, 0, 0}});
+    s.v.insert(s.v.end(), {a, Point3f{a.x, infinity, a.z}, a + Vector3f{0, 0, 1}});
+  }
+  for (int i = 0; i < 1500; ++i) {  // all in the plane z = 0.5
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), 0.5f};
+    s.v.insert(s.v.end(), {a, a + Vector3f{uniform(rng, 0, 1), 0, 0}, a + Vector3f{0, uniform(rng, 0, 1), 0}});
+  }
+  BVH bvh = BVH::build(s.bounds());
+  std::vector<int> seen(s.size(), 0);
+  for (uint32_t p : bvh.prims()) ++seen[p];
+  CHECK(std::count(seen.begin(), seen.end(), 1) == long(s.size()));
+  CHECK(max_depth(bvh.nodes()) <= BVH::traversal_stack_size);
+  MeshAccel mesh_accel(s.mesh(), BVHBuildOptions{});
+  report(compare(s, bvh, &mesh_accel, 4000, rng));
+}
+
+TEST_CASE("a million copies of one triangle build a bounded tree", "[accel][bvh][degenerate]") {
+  Soup s;
+  const size_t n = size_t(1) << 20;
+  s.v.reserve(3 * n);
+  for (size_t i = 0; i < n; ++i) s.v.insert(s.v.end(), {Point3f{0, 0, 1}, Point3f{1, 0, 1}, Point3f{0, 1, 1}});
+  MeshAccel accel(s.mesh(), BVHBuildOptions{});
+  CHECK(max_depth(accel.bvh().nodes()) <= BVH::traversal_stack_size);
+  // Every copy is in the tree once (padding repeats a leaf's last triangle
+  // inside its own block only).
+  std::vector<int> seen(n, 0);
+  for (const BVHNode& nd : accel.bvh().nodes())
+    if (nd.is_leaf())
+      for (uint32_t k = nd.offset; k < nd.offset + nd.count; ++k) ++seen[accel.bvh().prims()[k]];
+  CHECK(std::count(seen.begin(), seen.end(), 1) == long(n));
+  RayTrianglePrecomp pc(Vector3f{0, 0, 1});
+  auto ref = intersect_triangle({0.2f, 0.2f, 0}, pc, infinity, s.v[0], s.v[1], s.v[2]);
+  REQUIRE(ref);
+  Float t = infinity;
+  TriangleHit h{};
+  uint32_t tri = 0;
+  REQUIRE(accel.intersect({0.2f, 0.2f, 0}, {0, 0, 1}, &t, &h, &tri));
+  CHECK(t == ref->t);
+  CHECK(accel.occluded({0.2f, 0.2f, 0}, {0, 0, 1}, 2));
+  Float t2 = infinity;
+  CHECK_FALSE(accel.intersect({0.7f, 0.7f, 0}, {0, 0, 1}, &t2, &h, &tri));  // beyond the hypotenuse
 }

@@ -71,6 +71,10 @@ static_assert(sizeof(BVHNode) == 32);
 
 struct BVHBuildOptions {
   int max_leaf_size = 8;
+  // Primitives a leaf tests together (triangle packets): the SAH counts a
+  // leaf's cost in blocks of this many, and each leaf's range in prims()
+  // starts at a multiple of it, padded by repeating the leaf's last primitive.
+  int leaf_block = 1;
   // Relative cost of a node visit against one primitive test.
   Float traversal_cost = 1.0f;
   // Threads for the build; 0 = all hardware threads. The tree does not depend on it.
@@ -309,14 +313,45 @@ class BVH {
     }
     detail::reserve_huge(bvh.m_nodes, 2 * n - 1);
     b.build_range(0, uint32_t(n), 0, bb, cb, bvh.m_nodes);
-    detail::reserve_huge(bvh.m_prims, n);
-    bvh.m_prims.resize(n);
-    detail::parallel_chunks(n, chunks, [&](size_t begin, size_t end, int) {
-      for (size_t i = begin; i < end; ++i) bvh.m_prims[i] = b.refs[i].index;
-    });
+    if (opt.leaf_block > 1) {
+      bvh.pad_leaves(b.refs.get(), uint32_t(opt.leaf_block));
+    } else {
+      detail::reserve_huge(bvh.m_prims, n);
+      bvh.m_prims.resize(n);
+      detail::parallel_chunks(n, chunks, [&](size_t begin, size_t end, int) {
+        for (size_t i = begin; i < end; ++i) bvh.m_prims[i] = b.refs[i].index;
+      });
+    }
     detail::reserve_huge(bvh.m_wide, bvh.m_nodes.size() / 4 + 1);
     bvh.collapse(0);
     return bvh;
+  }
+
+  // Refit after the primitives moved (a deforming mesh): the same tree over
+  // the new bounds, bounds_of(i) giving input primitive i's. Boxes are
+  // recomputed bottom-up and the traversal layout is derived anew, so queries
+  // are exact; the SAH quality of the old topology may degrade if the motion
+  // reshuffles primitives (rebuild then).
+  template <class BoundsOf>
+    requires std::is_invocable_r_v<Bounds3f, BoundsOf&, size_t>
+  void refit(BoundsOf&& bounds_of) {
+    // Depth-first order puts children after their parent: a reverse sweep
+    // meets every child before its parent.
+    for (size_t i = m_nodes.size(); i-- > 0;) {
+      BVHNode& nd = m_nodes[i];
+      Bounds3f b;
+      if (nd.is_leaf()) {
+        for (uint32_t k = nd.offset, e = nd.offset + nd.count; k < e; ++k) b = union_bounds(b, bounds_of(m_prims[k]));
+      } else {
+        b = union_bounds(m_nodes[i + 1].bounds(), m_nodes[nd.offset].bounds());
+      }
+      for (int a = 0; a < 3; ++a) {
+        nd.bmin[a] = b.min[a];
+        nd.bmax[a] = b.max[a];
+      }
+    }
+    m_wide.clear();
+    if (!m_nodes.empty()) collapse(0);
   }
 
   bool empty() const { return m_nodes.empty(); }
@@ -324,6 +359,12 @@ class BVH {
   // Leaf order: primitive k of a leaf range is the input primitive prims()[k].
   const std::vector<uint32_t>& prims() const { return m_prims; }
   Bounds3f bounds() const { return m_nodes.empty() ? Bounds3f{} : m_nodes[0].bounds(); }
+  // Bytes held: the binary tree, the wide traversal layout and the leaf order.
+  size_t memory_bytes() const {
+    return m_nodes.size() * sizeof(BVHNode) + m_wide.size() * sizeof(detail::BVHWideNode) +
+           m_prims.size() * sizeof(uint32_t);
+  }
+  size_t wide_node_count() const { return m_wide.size(); }
 
   // Closest hit. isect(k, t_max) tests leaf-order primitive k and, on a hit
   // closer than t_max, lowers t_max and returns true. Children are visited
@@ -338,6 +379,19 @@ class BVH {
   // may trace the ray through several BVHs.
   template <class F>
   bool intersect(const detail::WideRayPrecomp& r, Float& t_max, F&& isect) const {
+    return intersect_leaves(r, t_max, [&](uint32_t first, uint32_t count, Float& tm) {
+      bool hit = false;
+      for (uint32_t k = first, e = first + count; k < e; ++k)
+        if (isect(k, tm)) hit = true;
+      return hit;
+    });
+  }
+  // Closest hit, a leaf at a time: leaf(first, count, t_max) tests leaf-order
+  // primitives [first, first + count) and, on a hit closer than t_max, lowers
+  // t_max and returns true. With BVHBuildOptions::leaf_block > 1, first is a
+  // multiple of it and the range may be read up to the next multiple.
+  template <class F>
+  bool intersect_leaves(const detail::WideRayPrecomp& r, Float& t_max, F&& leaf) const {
     if (m_nodes.empty()) return false;
     // No separate test of the root box: a ray that misses it misses every
     // child box inside it too (the slab distances are monotonic in the planes).
@@ -390,8 +444,7 @@ class BVH {
           idx = node.child[l];
           continue;
         }
-        for (uint32_t k = node.child[l], e = k + node.count[l]; k < e; ++k)
-          if (isect(k, t_max)) hit = true;
+        if (leaf(node.child[l], node.count[l], t_max)) hit = true;
       }
       // Pop, skipping entries that a closer hit has since made unreachable
       // (exactly intersect_node's test with the lowered t_max).
@@ -403,8 +456,7 @@ class BVH {
           idx = e.child;
           break;
         }
-        for (uint32_t k = e.child, end = k + e.count; k < end; ++k)
-          if (isect(k, t_max)) hit = true;
+        if (leaf(e.child, e.count, t_max)) hit = true;
       }
     }
   }
@@ -417,6 +469,16 @@ class BVH {
   }
   template <class F>
   bool occluded(const detail::WideRayPrecomp& r, Float t_max, F&& isect) const {
+    return occluded_leaves(r, t_max, [&](uint32_t first, uint32_t count, Float tm) {
+      for (uint32_t k = first, e = first + count; k < e; ++k)
+        if (isect(k, tm)) return true;
+      return false;
+    });
+  }
+  // Any hit, a leaf at a time: leaf(first, count, t_max) returns whether one of
+  // the leaf's primitives is hit before t_max (see intersect_leaves).
+  template <class F>
+  bool occluded_leaves(const detail::WideRayPrecomp& r, Float t_max, F&& leaf) const {
     if (m_nodes.empty()) return false;
     uint32_t stack[wide_stack_size];
     int sp = 0;
@@ -434,9 +496,8 @@ class BVH {
         if (count == detail::BVHWideNode::interior) {
           stack[sp++] = c;
           detail::prefetch(&m_wide[c]);
-        } else {
-          for (uint32_t k = c, e = c + count; k < e; ++k)
-            if (isect(k, t_max)) return true;
+        } else if (leaf(c, count, t_max)) {
+          return true;
         }
       }
       if (sp == 0) return false;
@@ -508,7 +569,10 @@ class BVH {
     // traversal stacks (max_sah_depth + 32 entries) never overflow.
     static constexpr int max_sah_depth = 48;
 
-    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t) {}
+    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t), block(uint32_t(std::max(1, o.leaf_block))) {}
+    uint32_t block;
+    // The cost of testing n primitives: the blocks they fill.
+    Float blocks(uint32_t n) const { return Float((n + block - 1) / block); }
 
     // The bin of centroid coordinate c: std::min(bin_count - 1, int((c - lo) * k)),
     // with NaN (from infinite bounds) in bin 0 rather than undefined.
@@ -637,7 +701,7 @@ class BVH {
             acc.grow(bin_b[a][i]);
             acc_n += bin_n[a][i];
             if (right_n[i + 1] == 0) continue;
-            Float cost = Float(acc_n) * acc.bounds().surface_area() + Float(right_n[i + 1]) * right_area[i + 1];
+            Float cost = blocks(acc_n) * acc.bounds().surface_area() + blocks(right_n[i + 1]) * right_area[i + 1];
             if (cost < best_cost) {
               best_cost = cost;
               best_axis = a;
@@ -647,8 +711,8 @@ class BVH {
         }
 
         Float area = bb.surface_area();
-        Float leaf_cost = Float(n);
-        Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : Float(n));
+        Float leaf_cost = blocks(n);
+        Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : blocks(n));
         if (best_axis < 0) {
           // All centroids coincide: split in the middle if the leaf would be too big.
           if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
@@ -744,6 +808,24 @@ class BVH {
         if (!out[i].is_leaf()) out[i].offset += base;
     }
   };
+
+  // Lays out prims() with every leaf starting at a multiple of `block` and
+  // padded to one by repeating its last primitive; rewrites the leaves' offsets.
+  void pad_leaves(const PrimRef* refs, uint32_t block) {
+    size_t total = 0;
+    for (const BVHNode& nd : m_nodes)
+      if (nd.is_leaf()) total += (nd.count + block - 1) / block * block;
+    detail::reserve_huge(m_prims, total);
+    m_prims.resize(total);
+    uint32_t at = 0;
+    for (BVHNode& nd : m_nodes) {
+      if (!nd.is_leaf()) continue;
+      uint32_t padded = (nd.count + block - 1) / block * block;
+      for (uint32_t i = 0; i < padded; ++i) m_prims[at + i] = refs[nd.offset + std::min(i, nd.count - 1)].index;
+      nd.offset = at;
+      at += padded;
+    }
+  }
 
   // The children of the wide node for binary node `bin`: starting from its two
   // children, the inner child with the largest surface area is replaced by its

@@ -12,8 +12,11 @@
 // far (docs/motion_blur.md gives the measurement behind the default).
 #pragma once
 #include <optional>
+#include <string>
 #include <vector>
 #include "prism/accel/bvh.hpp"
+#include "prism/accel/triangle_packet.hpp"
+#include "prism/error.hpp"
 #include "prism/math/animated_transform.hpp"
 #include "prism/geometry/sphere.hpp"
 #include "prism/geometry/triangle.hpp"
@@ -30,34 +33,54 @@
 
 namespace prism {
 
-// A mesh's BVH with its triangles' vertices copied into leaf order, so that a
-// leaf's triangles are contiguous in memory and need no index lookups.
+// A mesh's BVH with its triangles' vertices copied into leaf order, four
+// triangles to a packet (accel/triangle_packet.hpp): each leaf starts a new
+// packet, so a leaf's triangles are contiguous, need no index lookups and are
+// tested four at a time.
 class MeshAccel {
  public:
   MeshAccel() = default;
-  MeshAccel(const TriangleMesh& mesh, const BVHBuildOptions& opt) {
+  MeshAccel(const TriangleMesh& mesh, const BVHBuildOptions& options) {
     size_t n = mesh.triangle_count();
     const Point3f* p = mesh.positions.data();
     const uint32_t* idx = mesh.indices.data();
+    BVHBuildOptions opt = options;
+    opt.leaf_block = triangle_packet_width;
     m_bvh = BVH::build(
         n,
         [p, idx](size_t i) {
           return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
         },
         opt);
-    detail::reserve_huge(m_verts, 3 * n);
-    m_verts.resize(3 * n);
-    int threads = detail::build_threads(opt.threads);
-    detail::parallel_chunks(n, detail::parallel_chunk_count(n, threads), [&](size_t begin, size_t end, int) {
-      for (size_t k = begin; k < end; ++k) {
-        uint32_t t = m_bvh.prims()[k];
-        for (size_t j = 0; j < 3; ++j) m_verts[3 * k + j] = p[idx[3 * size_t(t) + j]];
-      }
+    m_threads = detail::build_threads(opt.threads);
+    m_triangles = n;
+    size_t packets = m_bvh.prims().size() / triangle_packet_width;
+    detail::reserve_huge(m_packets, packets);
+    m_packets.resize(packets);
+    pack(mesh);
+  }
+
+  // After the mesh's vertices moved (same triangles, same indices): refits the
+  // BVH (BVH::refit) and repacks the triangles. Hits are then those of a
+  // rebuilt MeshAccel, at a fraction of the build's cost.
+  void refit(const TriangleMesh& mesh) {
+    if (mesh.triangle_count() != m_triangles)
+      throw Error("MeshAccel::refit: the mesh has " + std::to_string(mesh.triangle_count()) +
+                  " triangles, the BVH was built over " + std::to_string(m_triangles));
+    const Point3f* p = mesh.positions.data();
+    const uint32_t* idx = mesh.indices.data();
+    m_bvh.refit([p, idx](size_t i) {
+      return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
     });
+    pack(mesh);
   }
 
   const BVH& bvh() const { return m_bvh; }
   Bounds3f bounds() const { return m_bvh.bounds(); }
+  // Bytes of the BVH's nodes, its leaf order and the triangle packets.
+  size_t memory_bytes() const {
+    return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket);
+  }
 
   // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
   // (the triangle's index in the mesh).
@@ -90,9 +113,31 @@ class MeshAccel {
   }
 
  private:
+  static constexpr int W = triangle_packet_width;
+  // Copies the triangles into the packets, in leaf order.
+  void pack(const TriangleMesh& mesh) {
+    const Point3f* p = mesh.positions.data();
+    const uint32_t* idx = mesh.indices.data();
+    size_t packets = m_packets.size();
+    detail::parallel_chunks(packets, detail::parallel_chunk_count(packets, m_threads),
+                            [&](size_t begin, size_t end, int) {
+                              for (size_t k = begin; k < end; ++k)
+                                for (int l = 0; l < W; ++l) {
+                                  size_t t = m_bvh.prims()[k * W + size_t(l)];
+                                  m_packets[k].set(l, p[idx[3 * t]], p[idx[3 * t + 1]], p[idx[3 * t + 2]]);
+                                }
+                            });
+  }
+  // The lanes of packet `first / W + j` that belong to a leaf of `count`
+  // triangles starting at `first`.
+  static int lanes_of(uint32_t count, uint32_t j) {
+    uint32_t left = count - j * W;
+    return left >= uint32_t(W) ? (1 << W) - 1 : (1 << left) - 1;
+  }
+
   // The queries for a ray whose largest direction component is KZ. The
-  // watertight test's axis permutation is then a compile-time constant, which
-  // the fully inlined test folds away; the arithmetic is unchanged.
+  // watertight test's axis permutation is then a compile-time constant; the
+  // arithmetic is unchanged.
   template <int KZ>
   PRISM_FLATTEN bool intersect_axis(const Point3f& o, const detail::WideRayPrecomp& wr, RayTrianglePrecomp pc,
                                     Float* t_max, TriangleHit* hit, uint32_t* tri) const {
@@ -100,13 +145,18 @@ class MeshAccel {
     pc.kx = (KZ + 1) % 3;
     pc.ky = (KZ + 2) % 3;
     uint32_t best = 0;
-    bool found = m_bvh.intersect(wr, *t_max, [&](uint32_t k, Float& tm) {
-      auto h = intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]);
-      if (!h) return false;
-      tm = h->t;
-      *hit = *h;
-      best = k;
-      return true;
+    bool found = m_bvh.intersect_leaves(wr, *t_max, [&](uint32_t first, uint32_t count, Float& tm) {
+      bool any = false;
+      for (uint32_t j = 0; j * W < count; ++j) {
+        uint32_t k = first / W + j;
+        if (auto h = intersect_packet<KZ>(m_packets[k], o, pc, tm, lanes_of(count, j))) {
+          tm = h->hit.t;
+          *hit = h->hit;
+          best = k * W + uint32_t(h->lane);
+          any = true;
+        }
+      }
+      return any;
     });
     if (found) *tri = m_bvh.prims()[best];
     return found;
@@ -117,14 +167,23 @@ class MeshAccel {
     pc.kz = KZ;
     pc.kx = (KZ + 1) % 3;
     pc.ky = (KZ + 2) % 3;
-    return m_bvh.occluded(wr, t_max, [&](uint32_t k, Float tm) {
-      if (skip != UINT32_MAX && m_bvh.prims()[k] == skip) return false;
-      return intersect_triangle(o, pc, tm, m_verts[3 * k], m_verts[3 * k + 1], m_verts[3 * k + 2]).has_value();
+    return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
+      for (uint32_t j = 0; j * W < count; ++j) {
+        uint32_t k = first / W + j;
+        int lanes = lanes_of(count, j);
+        if (skip != UINT32_MAX)
+          for (int l = 0; l < W; ++l)
+            if (m_bvh.prims()[k * W + uint32_t(l)] == skip) lanes &= ~(1 << l);
+        if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
+      }
+      return false;
     });
   }
 
   BVH m_bvh;
-  std::vector<Point3f> m_verts;
+  std::vector<TrianglePacket> m_packets;
+  size_t m_triangles = 0;
+  int m_threads = 1;
 };
 
 struct Instance {
@@ -192,10 +251,31 @@ class SceneAccel {
   // moves.
   static constexpr int kDefaultMotionSegments = 4;
   void build(const BVHBuildOptions& opt = {}) {
-    const int motion_segments = opt.motion_segments;
     m_mesh_accels.clear();
     m_mesh_accels.reserve(m_meshes.size());
     for (const auto& m : m_meshes) m_mesh_accels.emplace_back(m, opt);
+    build_top(opt);
+  }
+
+  // A deforming mesh: new vertex positions for mesh `mesh` (same count, same
+  // triangles), after build(). Refits its BVH (MeshAccel::refit) and rebuilds
+  // the top level over the instances' new bounds.
+  void refit_mesh(uint32_t mesh, std::vector<Point3f> positions) {
+    if (mesh >= m_meshes.size() || m_mesh_accels.size() != m_meshes.size())
+      throw Error("SceneAccel::refit_mesh: mesh " + std::to_string(mesh) + " does not exist or build() has not run");
+    if (positions.size() != m_meshes[mesh].positions.size())
+      throw Error("SceneAccel::refit_mesh: mesh " + std::to_string(mesh) + " has " +
+                  std::to_string(m_meshes[mesh].positions.size()) + " vertices, got " +
+                  std::to_string(positions.size()));
+    m_meshes[mesh].positions = std::move(positions);
+    m_mesh_accels[mesh].refit(m_meshes[mesh]);
+    build_top(m_build_options);
+  }
+
+ private:
+  void build_top(const BVHBuildOptions& opt) {
+    m_build_options = opt;
+    const int motion_segments = opt.motion_segments;
     int segments = 1;
     m_time0 = 0;
     m_time1 = 0;
@@ -233,6 +313,8 @@ class SceneAccel {
     m_lone_identity_mesh = m_instances.size() == 1 && m_instances[0].kind == Instance::Kind::mesh &&
                            m_instances[0].identity;
   }
+
+ public:
 
   std::optional<Hit> intersect(const Ray& ray, Float t_max = infinity) const {
     const BVH& top = top_for(ray.time);
@@ -350,6 +432,7 @@ class SceneAccel {
   Bounds3f m_bounds;
   Float m_time0 = 0, m_time1 = 0, m_time_scale = 0;
   bool m_lone_identity_mesh = false;
+  BVHBuildOptions m_build_options;
 };
 
 }  // namespace prism
