@@ -57,9 +57,10 @@ struct RenderOptions {
   int tile_offset = 0;
   // Adaptive sampling (docs/adaptive.md), on when adaptive_target > 0: every
   // pixel first takes adaptive_min_spp samples, then rounds of samples go to
-  // the pixels whose estimated relative error (standard error of the mean
-  // over the mean, per channel, the mean floored at adaptive_floor, the
-  // per-sample variance taken as the largest of the 3x3 neighbourhood's)
+  // the pixels whose estimated relative error (the standard error of the
+  // mean of the three channels over that mean, floored at adaptive_floor;
+  // the per-sample relative variance taken as the largest of the 3x3
+  // neighbourhood's: adaptive_errors below)
   // exceeds adaptive_target, until none does or they reach spp, which is then
   // the most samples any pixel takes. Sample i of a pixel has the same random
   // numbers as in a uniform render, so a pixel that took n samples holds the
@@ -305,40 +306,58 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
 }  // namespace detail
 
 // The estimated relative error of each pixel's camera-sample estimate, as
-// adaptive sampling measures it (RenderOptions::adaptive_target): per pixel
-// and channel, the per-sample relative variance r2 = n var(mean) /
-// max(mean, floor)^2, its largest over channels; then the largest over the
-// 3x3 neighbourhood, divided by the pixel's own count n. Returns
-// sqrt of that per pixel (w h, row-major). A pixel with fewer than 2 samples
-// gets infinity. With neighbourhood = false, the pixel's own error only.
+// adaptive sampling measures it (RenderOptions::adaptive_target). Per pixel,
+// with n samples: the brightness m = (r + g + b) / 3 of its mean, and the
+// per-sample standard deviation of that brightness, bounded by sd = sqrt(n)
+// (se_r + se_g + se_b) / 3 from the channels' standard errors (exact when the
+// channels' noise is fully correlated, as when a path's throughput scales all
+// three; the film keeps no covariances). Then the per-sample relative
+// variance r2 = sd^2 / max(M, floor)^2, with M the mean of m over the 3x3
+// neighbourhood, and the error sqrt(R2 / n), with R2 the largest r2 over the
+// 3x3 neighbourhood. Taking the brightness from the neighbourhood keeps a
+// pixel whose own samples happen to be high from judging itself precise and
+// stopping on them (the stopping rule's bias, docs/adaptive.md); the largest
+// r2 around keeps a pixel whose few samples all missed a rare bright path
+// from stopping while its neighbours see it. Returns the error per pixel
+// (w h, row-major), infinity below 2 samples. With neighbourhood = false:
+// the plain sd / (sqrt(n) max(m, floor)) of the pixel alone.
 inline std::vector<double> adaptive_errors(const Film& film, double floor, bool neighbourhood = true) {
   const int w = film.width(), h = film.height();
-  std::vector<double> r2(size_t(w) * size_t(h), 0.0), out(r2.size(), 0.0);
+  const size_t np = size_t(w) * size_t(h);
+  std::vector<double> sd2(np, 0.0), m(np, 0.0), r2(np, 0.0), out(np, 0.0);
   const double inf = std::numeric_limits<double>::infinity();
+  auto at = [w](int x, int y) { return size_t(y) * size_t(w) + size_t(x); };
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const uint64_t n = film.sample_count(x, y);
-      double r = inf;
+      const RGB mean = film.sample_mean(x, y);
+      m[at(x, y)] = (double(mean[0]) + double(mean[1]) + double(mean[2])) / 3;
       if (n >= 2) {
-        const RGB var = film.variance(x, y), m = film.sample_mean(x, y);
-        r = 0;
-        for (int c = 0; c < 3; ++c) {
-          const double d = std::max(double(m[c]), floor);
-          r = std::max(r, double(var[c]) * double(n) / (d * d));
-        }
+        const RGB var = film.variance(x, y);
+        const double se = (std::sqrt(double(var[0])) + std::sqrt(double(var[1])) + std::sqrt(double(var[2]))) / 3;
+        sd2[at(x, y)] = se * se * double(n);
+      } else {
+        sd2[at(x, y)] = inf;
       }
-      r2[size_t(y) * size_t(w) + size_t(x)] = r;
+    }
+  auto box = [&](const std::vector<double>& v, int x, int y, bool take_max) {
+    double acc = 0;
+    int k = 0;
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+      for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx, ++k)
+        acc = take_max ? std::max(acc, v[at(xx, yy)]) : acc + v[at(xx, yy)];
+    return take_max ? acc : acc / k;
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double d = std::max(neighbourhood ? box(m, x, y, false) : m[at(x, y)], floor);
+      r2[at(x, y)] = sd2[at(x, y)] / (d * d);
     }
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * size_t(w) + size_t(x);
-      double r = r2[i];
-      if (neighbourhood)
-        for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
-          for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx)
-            r = std::max(r, r2[size_t(yy) * size_t(w) + size_t(xx)]);
       const uint64_t n = film.sample_count(x, y);
-      out[i] = n >= 2 ? std::sqrt(r / double(n)) : inf;
+      const double r = neighbourhood ? box(r2, x, y, true) : r2[at(x, y)];
+      out[at(x, y)] = n >= 2 ? std::sqrt(r / double(n)) : inf;
     }
   return out;
 }
