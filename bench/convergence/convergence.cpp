@@ -234,7 +234,7 @@ void run_adaptive(Harness& h, std::ofstream& csv, std::ofstream& slopes, const s
     for (bool adaptive : {false, true}) {
       const std::string method = std::string("path/") + kname + suffix + (adaptive ? "/adaptive" : "");
       std::vector<double> secs, mses;
-      const int points = adaptive ? 9 : 9;
+      constexpr int points = 9;
       for (int j = 0; j < points; ++j) {
         const int spp = adaptive ? 1024 : 1 << j;
         const double target = adaptive ? 1.6 * std::pow(2.0, -0.5 * j) : 0;
