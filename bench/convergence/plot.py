@@ -93,8 +93,8 @@ if os.path.exists(adaptive_csv):
                 base = method[:-len("/adaptive")] if adaptive else method
                 style = (f"with linespoints lw 2 dt {2 if adaptive else 1} pt {7 if '/sobol' in method else 5} "
                          f"ps 0.8 lc rgb '{colours[bases.index(base) % len(colours)]}'")
-                panels[2].append(f"'{dat}' using 1:2 {style} title '{method}  (relMSE slope {slope:+.2f})'")
-                panels[3].append(f"'{dat}' using 1:3 {style} notitle")
+                panels[2].append(f"'{dat}' using 1:2 {style} notitle")
+                panels[3].append(f"'{dat}' using 1:3 {style} title '{method}  (relMSE slope {slope:+.2f})'")
             out = os.path.join(images, f"convergence_adaptive_{scene}.png")
             script = "\n".join([
                 "set terminal pngcairo size 1300,620 font 'DejaVu Sans,10' noenhanced",
@@ -107,10 +107,10 @@ if os.path.exists(adaptive_csv):
                 "set grid xtics ytics mxtics mytics",
                 "set format x '%g'",
                 "set format y '%g'",
-                "set key inside bottom left box opaque font ',8' spacing 1.0",
+                "unset key",
                 "set ylabel 'relMSE'",
                 "plot " + ", \\\n  ".join(panels[2]),
-                "unset key",
+                "set key inside bottom left box opaque font ',8' spacing 1.0",
                 "set ylabel 'relative mean absolute error'",
                 "plot " + ", \\\n  ".join(panels[3]),
                 "unset multiplot",
