@@ -70,7 +70,7 @@ struct RenderOptions {
   int adaptive_min_spp = 16;
   double adaptive_floor = 1e-2;
   // When set (adaptive only), filled with each pixel's sample count (w h,
-  // row-major).
+  // row-major). The progress callback reports each round's tiles anew.
   std::vector<uint32_t>* adaptive_counts = nullptr;
 };
 
