@@ -128,6 +128,9 @@ struct Job {
   bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
   std::string light_sampler = "auto";  // auto, power, uniform or bvh
   std::string split = "samples";  // under MPI: how the ranks share the work
+  double target_error = 0;  // adaptive sampling (0: off): target relative error per pixel
+  int min_spp = 16, max_spp = 1024;
+  std::string spp_map;  // adaptive: the per-pixel sample counts as an image
 };
 
 // What the render reports, with or without MPI.
@@ -159,8 +162,14 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   std::signal(SIGINT, [](int) { g_cancel = true; });
   ProgressBar bar(!job.quiet && g_rank == 0 && ::isatty(STDERR_FILENO));
   RenderOptions opt;
-  opt.spp = job.spp;
+  opt.spp = job.target_error > 0 ? job.max_spp : job.spp;
   opt.seed = job.seed;
+  std::vector<uint32_t> counts;
+  if (job.target_error > 0) {
+    opt.adaptive_target = job.target_error;
+    opt.adaptive_min_spp = job.min_spp;
+    opt.adaptive_counts = &counts;
+  }
   opt.threads = job.threads > 0 ? job.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   opt.cancel = &g_cancel;
   opt.sampler = job.sampler == "sobol"        ? SamplerKind::sobol
@@ -219,6 +228,20 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
       return fail(e.what());
     }
   }
+  if (!job.spp_map.empty() && !counts.empty()) {
+    // Sample counts as grey levels: n / max_spp, so white is the cap (PNG:
+    // linear values, sRGB-encoded; EXR and PFM hold n itself).
+    const bool png_map = lowercase_extension(job.spp_map) == ".png";
+    Image map{job.width, job.height, std::vector<float>(counts.size() * 3)};
+    for (size_t i = 0; i < counts.size(); ++i)
+      for (int c = 0; c < 3; ++c)
+        map.rgb[i * 3 + size_t(c)] = png_map ? float(counts[i]) / float(job.max_spp) : float(counts[i]);
+    try {
+      write_image(job.spp_map, map, PngOptions{});
+    } catch (const Error& e) {
+      return fail(e.what());
+    }
+  }
   std::string shutter_note;
   if (job.shutter > 0) {
     char buf[160];
@@ -233,12 +256,21 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
     workers = std::to_string(g_ranks) + " ranks x " + std::to_string(result.threads) + " threads (" + job.split +
               " split)";
   std::printf(
-      "prism-render: %dx%d, %d spp, %s, %s, %s sampler, %s filter, %s, %s: %.2f s, %.3f M samples/s, %.3f M "
+      "prism-render: %dx%d, %d spp%s, %s, %s, %s sampler, %s filter, %s, %s: %.2f s, %.3f M samples/s, %.3f M "
       "rays/s, %llu dropped%s%s\n",
-      job.width, job.height, job.spp, model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
+      job.width, job.height, job.target_error > 0 ? job.max_spp : job.spp,
+      job.target_error > 0 ? " at most (adaptive)" : "", model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
       lights.c_str(), workers.c_str(), st.seconds,
       double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
       st.cancelled ? " (cancelled)" : "", shutter_note.c_str());
+  if (job.target_error > 0)
+    std::printf(
+        "prism-render: adaptive, target relative error %g: %llu samples (mean %.1f spp of %d to %d), %d rounds, "
+        "estimated relative error max %.4g (pixels below the cap), mean %.4g, %llu pixels at the cap above the "
+        "target\n",
+        job.target_error, (unsigned long long)st.samples, double(st.samples) / (double(job.width) * job.height),
+        std::min(job.min_spp, job.max_spp), job.max_spp, st.adaptive_rounds, st.adaptive_max_error,
+        st.adaptive_mean_error, (unsigned long long)st.adaptive_capped);
   if (distributed()) {
     for (const auto& line : result.rank_lines) std::printf("prism-render:   %s\n", line.c_str());
     std::printf("prism-render: balance (slowest rank / mean) %.3f, rank 0 waited %.3f s, reduction %.3f s\n",
@@ -406,6 +438,18 @@ int run(int argc, char** argv) {
                  "Under mpirun: how the ranks share the work: samples (each rank a range of every pixel's samples) "
                  "or tiles (each rank every n-th tile)")
       ->check(CLI::IsMember({"samples", "tiles"}));
+  app.add_option("--target-error", job.target_error,
+                 "Adaptive sampling: sample each pixel until the estimated relative error of its mean is below "
+                 "this (e.g. 0.05), between --min-spp and --max-spp samples; --spp is then unused "
+                 "(docs/adaptive.md). Not with mpirun")
+      ->check(CLI::Range(1e-6, 1e6));
+  app.add_option("--min-spp", job.min_spp, "Adaptive sampling: samples every pixel takes first")
+      ->check(CLI::Range(2, 1 << 24));
+  app.add_option("--max-spp", job.max_spp, "Adaptive sampling: the most samples a pixel takes")
+      ->check(CLI::Range(1, 1 << 24));
+  app.add_option("--spp-map", job.spp_map,
+                 "Adaptive sampling: write each pixel's sample count to this image (.png: count / --max-spp as grey; "
+                 ".exr, .pfm: the count)");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)
   // Threads per rank by default: the node's cores shared among its ranks.
@@ -428,6 +472,15 @@ int run(int argc, char** argv) {
   if (job.threads == 0 && distributed()) job.threads = node_threads;
 #endif
   if (job.outputs.empty()) job.outputs.push_back("default.png");
+  if (job.target_error > 0 && distributed())
+    return fail_everywhere("--target-error (adaptive sampling) does not run under mpirun: its rounds need the "
+                           "whole image in one process; run prism-render without mpirun");
+  if (!job.spp_map.empty() && !(job.target_error > 0)) return fail_everywhere("--spp-map needs --target-error");
+  if (job.target_error > 0 && job.min_spp > job.max_spp)
+    return fail_everywhere("--min-spp " + std::to_string(job.min_spp) + " exceeds --max-spp " +
+                           std::to_string(job.max_spp));
+  if (!job.spp_map.empty() && g_rank == 0)
+    if (auto err = check_output(job.spp_map); !err.empty()) return fail(err);
   if (job.aovs && std::none_of(job.outputs.begin(), job.outputs.end(),
                                [](const std::string& o) { return lowercase_extension(o) == ".exr"; }))
     return fail_everywhere("--aov needs an .exr output (--out image.exr)");

@@ -5,7 +5,9 @@
 # log-log chart per scene into docs/images/convergence_<scene>.png.
 # References are cached in bench/convergence/cache/ (gitignored) and reused;
 # delete that directory to render them again.
-# Results: bench/results/convergence.csv and bench/results/convergence_slopes.csv.
+# Results: bench/results/convergence.csv and bench/results/convergence_slopes.csv;
+# the adaptive-sampling comparison in bench/results/convergence_adaptive*.csv and
+# docs/images/convergence_adaptive_default.png.
 # Usage: scripts/convergence.sh [shared=../shared] [reference spp=8192]
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -18,5 +20,7 @@ cmake -S . -B build/bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DPRISM_BUILD_BENC
 cmake --build build/bench --target convergence_bench
 mkdir -p bench/results docs/images
 ./build/bench/bench/convergence_bench bench/results "$shared" bench/convergence/cache "$ref_spp"
+# Uniform against adaptive sampling on the default scene (docs/adaptive.md).
+./build/bench/bench/convergence_bench bench/results "$shared" bench/convergence/cache "$ref_spp" adaptive
 python3 bench/convergence/plot.py bench/results docs/images
 echo "--- bench/results/convergence_slopes.csv"; cat bench/results/convergence_slopes.csv

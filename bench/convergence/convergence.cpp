@@ -32,8 +32,17 @@
 // the reference's noise floor subtracted, the same against log spp, the slope of log relMAE against log seconds (ideal -1/2),
 // and relMSE x seconds at 256 spp (lower is better at equal time).
 //
+// With a fifth argument `adaptive`, it runs only the adaptive-sampling
+// comparison (docs/adaptive.md) on the default scene, RGB and spectral:
+// path/independent and path/sobol uniform at 1..256 spp against the same
+// with adaptive sampling (min 4 spp, at most 1024) at targets 1.6, 1.13,
+// 0.8, ..., 0.1 (relative error per pixel; the mean over 2 seeds while the
+// target is 0.8 or more), all in the same run so that their times compare,
+// into bench/results/convergence_adaptive.csv (the same columns, plus the
+// target and the mean spp) and convergence_adaptive_slopes.csv.
+//
 // Usage: convergence_bench [out_dir=bench/results] [shared=../shared]
-//        [cache=bench/convergence/cache] [ref_spp=8192]
+//        [cache=bench/convergence/cache] [ref_spp=8192] [adaptive]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -59,17 +68,22 @@ using Pixels = std::vector<float>;  // 3 floats per pixel, row-major
 
 enum class Integrator { path, bsdf };
 
+// target > 0: adaptive sampling to that relative error, spp the cap; the
+// samples taken go to *samples.
 template <class Scene, class Camera>
 Pixels render_image(const Scene& scene, const Camera& cam, Integrator integ, SamplerKind k, int spp, uint64_t seed,
-                    double* seconds) {
+                    double* seconds, double target = 0, uint64_t* samples = nullptr) {
   Film film(W, H);
   RenderOptions opt;
   opt.spp = spp;
   opt.seed = seed;
   opt.sampler = k;
+  opt.adaptive_target = target;
+  opt.adaptive_min_spp = 4;
   RenderStats st = integ == Integrator::path ? render(scene, cam, PathIntegrator{}, film, opt)
                                              : render(scene, cam, BSDFPathIntegrator{}, film, opt);
   if (seconds) *seconds = st.seconds;
+  if (samples) *samples = st.samples;
   Pixels px(size_t(W * H * 3));
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
@@ -209,6 +223,47 @@ struct Harness {
   }
 };
 
+// Uniform against adaptive sampling on one scene, in one run (see the top).
+template <class Scene, class Camera>
+void run_adaptive(Harness& h, std::ofstream& csv, std::ofstream& slopes, const std::string& scene_name,
+                  const std::string& suffix, const Scene& scene, const Camera& cam, const Harness::Reference& reference) {
+  const Pixels& ref = reference.px;
+  const std::pair<SamplerKind, const char*> samplers[] = {{SamplerKind::independent, "independent"},
+                                                          {SamplerKind::sobol, "sobol"}};
+  for (auto [k, kname] : samplers)
+    for (bool adaptive : {false, true}) {
+      const std::string method = std::string("path/") + kname + suffix + (adaptive ? "/adaptive" : "");
+      std::vector<double> secs, mses;
+      constexpr int points = 9;
+      for (int j = 0; j < points; ++j) {
+        const int spp = adaptive ? 1024 : 1 << j;
+        const double target = adaptive ? 1.6 * std::pow(2.0, -0.5 * j) : 0;
+        const int seeds = adaptive ? (target >= 0.79 ? 2 : 1) : std::max(1, 16 / spp);
+        double e = 0, a = 0, best = 1e30, mean_spp = 0;
+        for (int s = 0; s < seeds; ++s) {
+          double sec = 0;
+          uint64_t taken = 0;
+          Pixels img = render_image(scene, cam, Integrator::path, k, spp, uint64_t(1 + s), &sec, target, &taken);
+          e += rel_mse(img, ref) / seeds;
+          a += rel_mae(img, ref) / seeds;
+          mean_spp += double(adaptive ? taken : uint64_t(spp) * W * H) / (double(W) * H) / seeds;
+          best = std::min(best, sec);
+        }
+        csv << scene_name << "," << method << "," << spp << "," << best << "," << e << "," << a << "," << target
+            << "," << mean_spp << "\n";
+        csv.flush();
+        secs.push_back(best), mses.push_back(e);
+        std::printf("  %-36s %s %-6.3g mean spp %7.1f  %.3f s  relMSE %.4g relMAE %.4f relMSE x s %.4g\n",
+                    method.c_str(), adaptive ? "target" : "spp   ", adaptive ? target : double(spp), mean_spp, best,
+                    e, a, e * best);
+        std::fflush(stdout);
+      }
+      slopes << scene_name << "," << method << "," << loglog_slope(secs, mses) << "\n";
+      slopes.flush();
+    }
+  (void)h;
+}
+
 template <class S>
 void default_scene(Harness& h, const char* model, Harness::Reference* ref_out) {
   Scene<S> scene;
@@ -229,6 +284,30 @@ int main(int argc, char** argv) {
   h.cache_dir = argc > 3 ? argv[3] : "bench/convergence/cache";
   if (argc > 4) h.ref_spp = std::max(1, std::atoi(argv[4]));
   std::filesystem::create_directories(out);
+  if (argc > 5 && std::string(argv[5]) == "adaptive") {
+    std::ofstream csv(out + "/convergence_adaptive.csv"), slopes(out + "/convergence_adaptive_slopes.csv");
+    if (!csv || !slopes) {
+      std::fprintf(stderr, "convergence_bench: cannot write into %s\n", out.c_str());
+      return 1;
+    }
+    csv << "scene,method,spp,seconds,relmse,relmae,target,mean_spp\n";
+    slopes << "scene,method,slope_relmse_seconds\n";
+    const auto t0 = std::chrono::steady_clock::now();
+    std::printf("adaptive against uniform sampling, default scene, %dx%d\n", W, H);
+    auto one = [&](auto model_tag, const char* model) {
+      using S = decltype(model_tag);
+      Scene<S> scene;
+      build_cornell_box(scene);
+      scene.build();
+      const auto cam = default_camera(W, H);
+      Harness::Reference ref = h.reference(std::string("default_") + model, scene, cam);
+      run_adaptive(h, csv, slopes, "default", std::string("/") + model, scene, cam, ref);
+    };
+    one(RGB{}, "rgb");
+    one(Spectral{}, "spectral");
+    std::printf("total %.0f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    return 0;
+  }
   h.csv.open(out + "/convergence.csv");
   h.slopes.open(out + "/convergence_slopes.csv");
   if (!h.csv || !h.slopes) {

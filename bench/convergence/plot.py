@@ -62,3 +62,58 @@ with tempfile.TemporaryDirectory() as tmp:
         ])
         subprocess.run(["gnuplot"], input=script, text=True, check=True)
         print(f"wrote {out}")
+
+# The adaptive-sampling comparison (convergence_bench ... adaptive), when it
+# has been run: relMSE (left) and relMAE (right) against seconds, uniform
+# (solid) against adaptive (dashed), one chart per scene.
+adaptive_csv = os.path.join(results, "convergence_adaptive.csv")
+if os.path.exists(adaptive_csv):
+    apoints = {}
+    with open(adaptive_csv) as f:
+        for r in csv.DictReader(f):
+            apoints.setdefault(r["scene"], {}).setdefault(r["method"], []).append(
+                (float(r["seconds"]), float(r["relmse"]), float(r["relmae"])))
+    aslopes = {}
+    aslopes_csv = os.path.join(results, "convergence_adaptive_slopes.csv")
+    if os.path.exists(aslopes_csv):
+        with open(aslopes_csv) as f:
+            for r in csv.DictReader(f):
+                aslopes[(r["scene"], r["method"])] = float(r["slope_relmse_seconds"])
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene, methods in apoints.items():
+            bases = sorted({m[:-len("/adaptive")] if m.endswith("/adaptive") else m for m in methods})
+            panels = {2: [], 3: []}
+            for i, (method, pts) in enumerate(sorted(methods.items())):
+                dat = os.path.join(tmp, f"{scene}_{i}.dat")
+                with open(dat, "w") as d:
+                    for s, e, a in sorted(pts):
+                        d.write(f"{s} {e} {a}\n")
+                slope = aslopes.get((scene, method), float("nan"))
+                adaptive = method.endswith("/adaptive")
+                base = method[:-len("/adaptive")] if adaptive else method
+                style = (f"with linespoints lw 2 dt {2 if adaptive else 1} pt {7 if '/sobol' in method else 5} "
+                         f"ps 0.8 lc rgb '{colours[bases.index(base) % len(colours)]}'")
+                panels[2].append(f"'{dat}' using 1:2 {style} notitle")
+                panels[3].append(f"'{dat}' using 1:3 {style} title '{method}  (relMSE slope {slope:+.2f})'")
+            out = os.path.join(images, f"convergence_adaptive_{scene}.png")
+            script = "\n".join([
+                "set terminal pngcairo size 1300,620 font 'DejaVu Sans,10' noenhanced",
+                f"set output '{out}'",
+                "set multiplot layout 1,2 title \"" + titles.get(scene, scene) +
+                "\\nuniform (solid) against adaptive sampling (dashed, targets 1.6 to 0.1, 4 to 1024 spp), "
+                "same run\"",
+                "set logscale xy",
+                "set xlabel 'render time (s, 2 threads, loaded machine)'",
+                "set grid xtics ytics mxtics mytics",
+                "set format x '%g'",
+                "set format y '%g'",
+                "unset key",
+                "set ylabel 'relMSE'",
+                "plot " + ", \\\n  ".join(panels[2]),
+                "set key inside bottom left box opaque font ',8' spacing 1.0",
+                "set ylabel 'relative mean absolute error'",
+                "plot " + ", \\\n  ".join(panels[3]),
+                "unset multiplot",
+            ])
+            subprocess.run(["gnuplot"], input=script, text=True, check=True)
+            print(f"wrote {out}")

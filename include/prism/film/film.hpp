@@ -84,6 +84,8 @@ class Film {
     return v;
   }
   uint64_t sample_count(int x, int y) const { return m_pixels[index(x, y)].count; }
+  // The camera samples' estimate alone (no splats), in linear sRGB.
+  RGB sample_mean(int x, int y) const { return camera_pixel(x, y); }
 
   // Linear RGB, row-major from the top-left, 3 floats per pixel.
   std::vector<float> rgb_buffer() const {

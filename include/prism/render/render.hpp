@@ -3,12 +3,16 @@
 // tile, and its samples run in order with random numbers that depend only on
 // the pixel, the sample index and the seed. The image is therefore the same
 // whatever the thread count. A non-finite sample is dropped and counted.
+// With RenderOptions::adaptive_target set, render() samples adaptively
+// (render_adaptive below, docs/adaptive.md): rounds of samples go to the
+// pixels whose estimated relative error is still above the target.
 #pragma once
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -51,6 +55,23 @@ struct RenderOptions {
   int sample_count = -1;
   int tile_stride = 1;
   int tile_offset = 0;
+  // Adaptive sampling (docs/adaptive.md), on when adaptive_target > 0: every
+  // pixel first takes adaptive_min_spp samples, then rounds of samples go to
+  // the pixels whose estimated relative error (the standard error of the
+  // mean of the three channels over that mean, floored at adaptive_floor;
+  // the per-sample relative variance taken as the largest of the 3x3
+  // neighbourhood's: adaptive_errors below)
+  // exceeds adaptive_target, until none does or they reach spp, which is then
+  // the most samples any pixel takes. Sample i of a pixel has the same random
+  // numbers as in a uniform render, so a pixel that took n samples holds the
+  // uniform n-spp value. Not combined with first_sample/sample_count or
+  // tile_stride (splitting among processes): render() rejects that.
+  double adaptive_target = 0;
+  int adaptive_min_spp = 16;
+  double adaptive_floor = 1e-2;
+  // When set (adaptive only), filled with each pixel's sample count (w h,
+  // row-major). The progress callback reports each round's tiles anew.
+  std::vector<uint32_t>* adaptive_counts = nullptr;
 };
 
 struct RenderStats {
@@ -60,13 +81,31 @@ struct RenderStats {
   uint64_t rays = 0;
   uint64_t dropped = 0;  // non-finite samples, never written to the film
   bool cancelled = false;
+  // Adaptive sampling only: rounds after the first pass, pixels that stopped
+  // at spp with their error still above the target, and the estimated
+  // relative error (as the rounds measure it, 3x3 neighbourhood included)
+  // over all pixels: the largest among those below the cap, and the mean.
+  int adaptive_rounds = 0;
+  uint64_t adaptive_capped = 0;
+  double adaptive_max_error = 0, adaptive_mean_error = 0;
 };
 
-// Camera: PerspectiveCamera, OrthographicCamera or any type with
-// generate_ray(CameraSample) (and connect(p, u_lens) for the caustic pass).
-template <class Scene, class Integrator, class Filter = BoxFilter, class Camera = PerspectiveCamera>
-RenderStats render(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
-                   const RenderOptions& opt, const Filter& filter = Filter{}) {
+namespace detail {
+// One pass of an adaptive render: per pixel, samples [first[i], last[i])
+// (i = y w + x); camera samples and/or the caustic pass.
+struct PassPlan {
+  const uint32_t* first = nullptr;
+  const uint32_t* last = nullptr;
+  bool camera = true, caustics = true;
+};
+}  // namespace detail
+
+// One pass over the image: the whole render (plan == nullptr), or one round
+// of an adaptive render.
+namespace detail {
+template <class Scene, class Integrator, class Filter, class Camera>
+RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
+                        const RenderOptions& opt, const Filter& filter, const PassPlan* plan) {
   using S = typename Scene::spectrum_type;
   using traits = spectrum_traits<S>;
   auto start = std::chrono::steady_clock::now();
@@ -94,7 +133,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   const int stride = opt.tile_stride, offset = opt.tile_offset;
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, all_tiles = tiles_x * tiles_y;
   // This share's tiles: offset, offset + stride, ...
-  const int tiles = all_tiles > offset ? (all_tiles - offset + stride - 1) / stride : 0;
+  const int tiles = plan && !plan->camera ? 0 : all_tiles > offset ? (all_tiles - offset + stride - 1) / stride : 0;
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min(threads, std::max(1, tiles)));
 
@@ -104,7 +143,8 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   // sample i / (w h), so a sample range owns a range of paths; a tile stride
   // takes every stride-th chunk of it.
   bool caustics = false;
-  if constexpr (requires { integrator.caustics_active(scene); }) caustics = integrator.caustics_active(scene);
+  if constexpr (requires { integrator.caustics_active(scene); })
+    caustics = (!plan || plan->caustics) && integrator.caustics_active(scene);
   const uint64_t pixels = uint64_t(w) * uint64_t(h);
   const uint64_t light_paths = caustics ? pixels * uint64_t(spp) : 0;
   const uint64_t lp_begin = caustics ? pixels * uint64_t(s_begin) : 0;
@@ -139,8 +179,13 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
       int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
       int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
       for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x)
-          for (int s = s_begin; s < s_end; ++s) {
+        for (int x = x0; x < x1; ++x) {
+          int sb = s_begin, se = s_end;
+          if (plan) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            sb = int(plan->first[i]), se = int(plan->last[i]);
+          }
+          for (int s = sb; s < se; ++s) {
             sampler.start_pixel_sample(x, y, s);
             // Fixed dimension order: wavelengths, filter, lens, time (only
             // when the shutter is open for an interval), then the integrator's.
@@ -166,6 +211,7 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
                                    fs.weight);
             }
           }
+        }
       int d = ++done;
       if (opt.progress) {
         std::lock_guard lock(progress_mutex);
@@ -256,6 +302,152 @@ RenderStats render(const Scene& scene, const Camera& camera, const Integrator& i
   st.dropped = dropped;
   st.cancelled = cancelled;
   return st;
+}
+}  // namespace detail
+
+// The estimated relative error of each pixel's camera-sample estimate, as
+// adaptive sampling measures it (RenderOptions::adaptive_target). Per pixel,
+// with n samples: the brightness m = (r + g + b) / 3 of its mean, and the
+// per-sample standard deviation of that brightness, bounded by sd = sqrt(n)
+// (se_r + se_g + se_b) / 3 from the channels' standard errors (exact when the
+// channels' noise is fully correlated, as when a path's throughput scales all
+// three; the film keeps no covariances). Then the per-sample relative
+// variance r2 = sd^2 / max(M, floor)^2, with M the mean of m over the 3x3
+// neighbourhood, and the error sqrt(R2 / n), with R2 the largest r2 over the
+// 3x3 neighbourhood. Taking the brightness from the neighbourhood keeps a
+// pixel whose own samples happen to be high from judging itself precise and
+// stopping on them (the stopping rule's bias, docs/adaptive.md); the largest
+// r2 around keeps a pixel whose few samples all missed a rare bright path
+// from stopping while its neighbours see it. Returns the error per pixel
+// (w h, row-major), infinity below 2 samples. With neighbourhood = false:
+// the plain sd / (sqrt(n) max(m, floor)) of the pixel alone.
+inline std::vector<double> adaptive_errors(const Film& film, double floor, bool neighbourhood = true) {
+  const int w = film.width(), h = film.height();
+  const size_t np = size_t(w) * size_t(h);
+  std::vector<double> sd2(np, 0.0), m(np, 0.0), r2(np, 0.0), out(np, 0.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  auto at = [w](int x, int y) { return size_t(y) * size_t(w) + size_t(x); };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint64_t n = film.sample_count(x, y);
+      const RGB mean = film.sample_mean(x, y);
+      m[at(x, y)] = (double(mean[0]) + double(mean[1]) + double(mean[2])) / 3;
+      if (n >= 2) {
+        const RGB var = film.variance(x, y);
+        const double se = (std::sqrt(double(var[0])) + std::sqrt(double(var[1])) + std::sqrt(double(var[2]))) / 3;
+        sd2[at(x, y)] = se * se * double(n);
+      } else {
+        sd2[at(x, y)] = inf;
+      }
+    }
+  auto box = [&](const std::vector<double>& v, int x, int y, bool take_max) {
+    double acc = 0;
+    int k = 0;
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+      for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx, ++k)
+        acc = take_max ? std::max(acc, v[at(xx, yy)]) : acc + v[at(xx, yy)];
+    return take_max ? acc : acc / k;
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double d = std::max(neighbourhood ? box(m, x, y, false) : m[at(x, y)], floor);
+      r2[at(x, y)] = sd2[at(x, y)] / (d * d);
+    }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint64_t n = film.sample_count(x, y);
+      const double r = neighbourhood ? box(r2, x, y, true) : r2[at(x, y)];
+      out[at(x, y)] = n >= 2 ? std::sqrt(r / double(n)) : inf;
+    }
+  return out;
+}
+
+namespace detail {
+// Adaptive sampling: a first pass of min_spp samples per pixel, then rounds.
+// After each round every pixel's error is measured (adaptive_errors); a
+// pixel above the target asks for n_need = n (e / target)^2 samples in all
+// and gets, in the next round, enough to reach n_need but at least n / 4 + 1
+// and at most n more (the estimate is noisy: no pixel jumps straight to the
+// cap on one round's variance), never past spp. The decisions are made
+// between rounds from the film alone, so they are the same whatever the
+// thread count. The caustic pass (if any) runs last with as many light paths
+// as camera samples were taken, rounded up to whole sample layers.
+template <class Scene, class Integrator, class Filter, class Camera>
+RenderStats render_adaptive(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
+                            const RenderOptions& opt, const Filter& filter) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(opt.adaptive_target > 0) || !std::isfinite(opt.adaptive_target))
+    throw Error("render: adaptive_target must be a positive number");
+  if (opt.first_sample != 0 || opt.sample_count >= 0 || opt.tile_stride != 1 || opt.tile_offset != 0)
+    throw Error("render: adaptive sampling cannot be split among processes or passes (first_sample, "
+                "sample_count, tile_stride); render the whole image in one process");
+  if (!(opt.adaptive_floor > 0)) throw Error("render: adaptive_floor must be positive");
+  const int max_spp = std::max(1, opt.spp);
+  const int min_spp = std::clamp(opt.adaptive_min_spp, std::min(2, max_spp), max_spp);
+  const int w = film.width(), h = film.height();
+  const size_t n_pix = size_t(w) * size_t(h);
+  for (const Film::Pixel& p : film.pixels())
+    if (p.count != 0) throw Error("render: adaptive sampling needs an empty film");
+  std::vector<uint32_t> first(n_pix, 0), last(n_pix, uint32_t(min_spp));
+  RenderOptions pass_opt = opt;
+  pass_opt.spp = max_spp;
+  pass_opt.adaptive_target = 0;
+  RenderStats st;
+  auto add = [&](const RenderStats& p) {
+    st.samples += p.samples, st.rays += p.rays, st.dropped += p.dropped, st.light_paths += p.light_paths;
+    st.cancelled = st.cancelled || p.cancelled;
+  };
+  PassPlan plan{first.data(), last.data(), true, false};
+  add(render_pass(scene, camera, integrator, film, pass_opt, filter, &plan));
+  const double target = opt.adaptive_target;
+  std::vector<double> err;
+  for (;;) {
+    err = adaptive_errors(film, opt.adaptive_floor);
+    if (st.cancelled) break;
+    bool any = false;
+    for (size_t i = 0; i < n_pix; ++i) {
+      const uint32_t n = last[i];
+      first[i] = n;
+      if (n >= uint32_t(max_spp) || !(err[i] > target)) continue;
+      const double need = std::isfinite(err[i]) ? std::ceil(double(n) * (err[i] / target) * (err[i] / target)) : 2.0 * n;
+      const double lo = double(n) + double(n / 4 + 1), hi = 2.0 * double(n);
+      last[i] = uint32_t(std::min(double(max_spp), std::clamp(need, lo, hi)));
+      any = true;
+    }
+    if (!any) break;
+    ++st.adaptive_rounds;
+    add(render_pass(scene, camera, integrator, film, pass_opt, filter, &plan));
+  }
+  double sum = 0, worst = 0;
+  for (size_t i = 0; i < n_pix; ++i) {
+    if (last[i] >= uint32_t(max_spp) && err[i] > target) ++st.adaptive_capped;
+    else worst = std::max(worst, err[i]);
+    sum += err[i];
+  }
+  st.adaptive_max_error = worst;
+  st.adaptive_mean_error = n_pix ? sum / double(n_pix) : 0;
+  if (!st.cancelled) {
+    // The caustic pass: light paths for ceil(camera samples / pixels) layers.
+    uint64_t taken = 0;
+    for (uint32_t n : last) taken += n;
+    RenderOptions copt = pass_opt;
+    copt.spp = int(n_pix ? (taken + n_pix - 1) / n_pix : 0);
+    PassPlan cplan{nullptr, nullptr, false, true};
+    add(render_pass(scene, camera, integrator, film, copt, filter, &cplan));
+  }
+  if (opt.adaptive_counts) *opt.adaptive_counts = last;
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return st;
+}
+}  // namespace detail
+
+// Camera: PerspectiveCamera, OrthographicCamera or any type with
+// generate_ray(CameraSample) (and connect(p, u_lens) for the caustic pass).
+template <class Scene, class Integrator, class Filter = BoxFilter, class Camera = PerspectiveCamera>
+RenderStats render(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
+                   const RenderOptions& opt, const Filter& filter = Filter{}) {
+  if (opt.adaptive_target != 0) return detail::render_adaptive(scene, camera, integrator, film, opt, filter);
+  return detail::render_pass(scene, camera, integrator, film, opt, filter, nullptr);
 }
 
 }  // namespace prism
