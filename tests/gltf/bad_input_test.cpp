@@ -231,6 +231,16 @@ TEST_CASE("bad input: out-of-range node indices", "[gltf][bad_input]") {
   require_error(a.write(), {"animations[0].channels[0].target.node", "node index 1 out of range"});
 }
 
+// Found by the glTF-Validator cross-check (scripts/validate_gltf.sh): a
+// byte flip that renamed "scenes" left "scene": 0 pointing at nothing.
+TEST_CASE("bad input: a default scene index with no scenes", "[gltf][bad_input]") {
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto e = box("default_scene_index");
+  e.gltf.erase("scenes");
+  e.gltf["scene"] = 0;
+  require_error(e.write(), {"scene", "index 0 out of range"});
+}
+
 TEST_CASE("bad input: out-of-range camera indices", "[gltf][bad_input]") {
   if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
   auto e = edit("camera_index", "Cameras/glTF", "Cameras.gltf");

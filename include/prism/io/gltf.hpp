@@ -178,6 +178,8 @@ class Loader {
     int scene = m_opt.scene >= 0 ? m_opt.scene : (m_model.defaultScene >= 0 ? m_model.defaultScene : 0);
     if (m_model.scenes.empty()) {
       if (m_opt.scene >= 0) fail("scenes", "the file has no scenes, so scene " + std::to_string(m_opt.scene) + " does not exist");
+      if (m_model.defaultScene >= 0)
+        fail("scene", "index " + std::to_string(m_model.defaultScene) + " out of range (the file has no scenes)");
       warn("the file has no scenes: nothing to render");
       return std::move(m_out);
     }
