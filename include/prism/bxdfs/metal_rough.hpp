@@ -1,6 +1,8 @@
 // prism/bxdfs/metal_rough.hpp — the glTF 2.0 metallic-roughness material
 // (glTF 2.0 specification, Appendix B) with KHR_materials_ior,
-// KHR_materials_specular and KHR_materials_transmission (thin-walled).
+// KHR_materials_specular, KHR_materials_transmission (thin-walled) and, for
+// KHR_materials_volume and _dispersion, a refracting "glass" lobe in place
+// of the thin transmission (make_refractive(); docs/gltf.md, Volumes).
 //
 // The model, per channel (RGB) or wavelength (spectral), in the local shading
 // frame; wm is the half vector of wo and wi (of wo and the mirror image of wi
