@@ -83,6 +83,15 @@ class Watchdog {
   std::thread m_thread;
 };
 
+// Each verdict is also appended, as "path<TAB>loaded|rejected", to
+// gltf_bad/prism_verdicts.tsv in the test's temporary folder, so that
+// scripts/validate_gltf.sh can compare the corpus left there with the
+// Khronos glTF-Validator's opinion (the last line for a path counts).
+void record_verdict(const std::string& path, bool loaded) {
+  std::ofstream f(std::string(PRISM_TEST_TMP_DIR) + "/gltf_bad/prism_verdicts.tsv", std::ios::app);
+  f << path << '\t' << (loaded ? "loaded" : "rejected") << '\n';
+}
+
 // Loads and builds `path`. Returns "" when it loads, else the prism::Error's
 // message (which must name the file). Any other exception escapes to Catch,
 // which fails the test with it.
@@ -92,11 +101,13 @@ std::string load_message(const std::string& path) {
     auto loaded = load_gltf<RGB>(path);
     loaded.scene.build();
   } catch (const Error& e) {
+    record_verdict(path, false);
     std::string msg = e.what();
     INFO(msg);
     CHECK_THAT(msg, Contains(path));
     return msg.empty() ? std::string("(empty message)") : msg;
   }
+  record_verdict(path, true);
   return {};
 }
 
@@ -218,6 +229,16 @@ TEST_CASE("bad input: out-of-range node indices", "[gltf][bad_input]") {
   auto a = edit("node_index_animation", "AnimatedCube/glTF", "AnimatedCube.gltf");
   a.gltf["animations"][0]["channels"][0]["target"]["node"] = 1;
   require_error(a.write(), {"animations[0].channels[0].target.node", "node index 1 out of range"});
+}
+
+// Found by the glTF-Validator cross-check (scripts/validate_gltf.sh): a
+// byte flip that renamed "scenes" left "scene": 0 pointing at nothing.
+TEST_CASE("bad input: a default scene index with no scenes", "[gltf][bad_input]") {
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto e = box("default_scene_index");
+  e.gltf.erase("scenes");
+  e.gltf["scene"] = 0;
+  require_error(e.write(), {"scene", "index 0 out of range"});
 }
 
 TEST_CASE("bad input: out-of-range camera indices", "[gltf][bad_input]") {

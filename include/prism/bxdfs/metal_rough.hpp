@@ -1,6 +1,8 @@
 // prism/bxdfs/metal_rough.hpp — the glTF 2.0 metallic-roughness material
 // (glTF 2.0 specification, Appendix B) with KHR_materials_ior,
-// KHR_materials_specular and KHR_materials_transmission (thin-walled).
+// KHR_materials_specular, KHR_materials_transmission (thin-walled) and, for
+// KHR_materials_volume and _dispersion, a refracting "glass" lobe in place
+// of the thin transmission (make_refractive(); docs/gltf.md, Volumes).
 //
 // The model, per channel (RGB) or wavelength (spectral), in the local shading
 // frame; wm is the half vector of wo and wi (of wo and the mirror image of wi
@@ -70,7 +72,9 @@
 #include <string>
 #include <string_view>
 #include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
+#include "prism/bxdfs/volume.hpp"
 #include "prism/error.hpp"
 #include "prism/geometry/interaction.hpp"
 #include "prism/sampling/warps.hpp"
@@ -114,39 +118,73 @@ class MetalRoughBxDF {
         m_metallic(metallic),
         m_diffuse_k((1 - metallic) * (1 - transmission)),
         m_trans_k((1 - metallic) * transmission),
+        m_layer_k(1 - metallic),
         m_base_avg(base.average()) {}
+
+  // KHR_materials_volume (thicknessFactor > 0): the surface bounds a
+  // refracting volume of relative index eta (wo.z > 0 outside). The thin
+  // transmission lobe becomes the "glass" lobe: the rough (or smooth)
+  // dielectric interface of dielectric.hpp with the exact Fresnel
+  // reflectance, weighted by (1 - metallic) T, its transmission tinted by the
+  // base colour at every crossing (the extension: base colour acts at the
+  // boundary, absorption inside). The Fresnel layer's reflection keeps only
+  // the remaining (1 - metallic)(1 - T) over the diffuse base, so
+  //   material = metallic metal + (1 - metallic)(1 - T)(layer + diffuse)
+  //            + (1 - metallic) T [R brdf + (1 - R) base btdf]
+  // with the glass lobe's R and btdf those of Walter et al. 2007, which the
+  // extension's Layering section names. Unlike the rest of the model the
+  // glass lobe is not mirrored for wo.z < 0: from inside the interface sees
+  // 1 / eta (and total internal reflection). KHR_materials_specular does not
+  // act on the glass lobe (its F0 is the ior's).
+  void make_refractive(Float eta) {
+    m_glass = DielectricBxDF<S>(eta, m_distrib);
+    m_glass_k = m_trans_k;
+    m_trans_k = 0;
+    m_layer_k = (1 - m_metallic) - m_glass_k;
+  }
+  bool is_refractive() const { return m_glass_k > 0; }
+  const DielectricBxDF<S>& glass() const { return m_glass; }
 
   bool is_smooth() const { return m_distrib.effectively_smooth(); }
 
-  S eval(Vector3f wo, Vector3f wi, TransportMode) const {
+  S eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (wo.z == 0 || wi.z == 0) return S{};
+    S g = glass_eval(wo, wi, mode);
     if (wo.z < 0) {
       wo.z = -wo.z;
       wi.z = -wi.z;
     }
-    return eval_up(wo, wi);
+    return eval_up(wo, wi) + g;
   }
-  Float pdf(Vector3f wo, Vector3f wi, TransportMode) const {
+  Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (wo.z == 0 || wi.z == 0) return 0;
+    const Lobes p = lobe_probabilities(wo.z);
+    Float g = m_glass_k > 0 && p.glass > 0 ? p.glass * m_glass.pdf(wo, wi, mode) : 0;
     if (wo.z < 0) {
       wo.z = -wo.z;
       wi.z = -wi.z;
     }
-    return pdf_up(wo, wi, lobe_probabilities(wo.z));
+    return pdf_up(wo, wi, p) + g;
   }
 
   // uc chooses the lobe (lobe_weights); u samples within it: a visible
   // normal for the reflection and the transmission, the cosine-weighted
   // hemisphere for the diffuse lobe (smooth lobes ignore u).
-  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode) const {
+  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
     if (wo.z == 0) return std::nullopt;
-    const bool flip = wo.z < 0;
-    if (flip) wo.z = -wo.z;
     const Lobes p = lobe_probabilities(wo.z);
     int lobe = choose_lobe(p, uc);
     if (lobe < 0) return std::nullopt;
+    if (lobe == 3) return sample_glass(wo, uc, u, mode, p);
+    const Vector3f wo_world = wo;
+    const bool flip = wo.z < 0;
+    if (flip) wo.z = -wo.z;
     auto out = [&](BSDFSample<S> bs) -> std::optional<BSDFSample<S>> {
       if (flip) bs.wi.z = -bs.wi.z;
+      if (m_glass_k > 0 && !bs.is_specular()) {  // the one-sample mixture includes the glass lobe
+        bs.f += glass_eval(wo_world, bs.wi, mode);
+        if (p.glass > 0) bs.pdf += p.glass * m_glass.pdf(wo_world, bs.wi, mode);
+      }
       return bs;
     };
     const Float co = wo.z;
@@ -183,7 +221,9 @@ class MetalRoughBxDF {
   BxDFFlags flags() const {
     BxDFFlags f = BxDFFlags::none;
     const bool smooth = is_smooth();
-    if (m_metallic > 0 || m_w > 0) f = f | (smooth ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
+    if (m_metallic > 0 || (m_w > 0 && m_layer_k > 0))
+      f = f | (smooth ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
+    if (m_glass_k > 0) f = f | m_glass.flags();
     // The base receives nothing when the layer reflects everything (F0 = 1, w = 1).
     const bool base_lit = m_base_avg > 0 && (m_w < 1 || m_f0_max < 1);
     if (base_lit && m_diffuse_k > 0) f = f | BxDFFlags::diffuse_reflection;
@@ -209,11 +249,20 @@ class MetalRoughBxDF {
   // hemisphere, 2 * integral of (1 - c)^5 c dc = 1/21, so that the reflection
   // weight is not 0 at normal incidence for F0 = 0 (ior = 1), where its f is
   // not. Each weight is 0 only where its lobe's f is 0 everywhere.
+  // The glass lobe (refractive volumes only): (1 - metallic) T (R + (1 - R)
+  // mean(base)), R the exact Fresnel reflectance at cos_o (signed: from
+  // inside, 1 under total internal reflection).
   struct Lobes {
-    Float reflection = 0, diffuse = 0, transmission = 0;
+    Float reflection = 0, diffuse = 0, transmission = 0, glass = 0;
   };
-  Lobes lobe_weights(Float mu) const {
+  // cos_o may be signed (the glass lobe needs the side); the other lobes use |cos_o|.
+  Lobes lobe_weights(Float cos_o) const {
     Lobes w;
+    const Float mu = std::abs(cos_o);
+    if (m_glass_k > 0) {
+      Float R = fresnel_dielectric(cos_o, m_glass.eta());
+      w.glass = m_glass_k * (R + (1 - R) * m_base_avg);
+    }
     Float c = mu;
     if (!is_smooth()) {
       Float a = std::max(m_distrib.alpha_x(), m_distrib.alpha_y());
@@ -229,18 +278,18 @@ class MetalRoughBxDF {
       // F = 1 - (1 - F0)(1 - s), per channel.
       Float d = m_w > 0 ? m_w * (1 - (1 - m_f0.average()) * sc) : 0;
       Float m = m_metallic > 0 ? 1 - (1 - m_base_avg) * sc : 0;
-      w.reflection = (1 - m_metallic) * d + m_metallic * m;
+      w.reflection = m_layer_k * d + m_metallic * m;
     }
     w.diffuse = m_diffuse_k * m_base_avg * base_weight(mu);
     w.transmission = m_trans_k * m_base_avg * ((1 - m_w) + m_w * (1 - m_f0_max) * sc);
     return w;
   }
   // lobe_weights normalised to sum to 1 (all 0 if they are).
-  Lobes lobe_probabilities(Float mu) const {
-    Lobes w = lobe_weights(mu);
-    Float total = w.reflection + w.diffuse + w.transmission;
+  Lobes lobe_probabilities(Float cos_o) const {
+    Lobes w = lobe_weights(cos_o);
+    Float total = w.reflection + w.diffuse + w.transmission + w.glass;
     if (!(total > 0)) return {};
-    return {w.reflection / total, w.diffuse / total, w.transmission / total};
+    return {w.reflection / total, w.diffuse / total, w.transmission / total, w.glass / total};
   }
 
   // The Fresnel factors (c = |wo.wm|, or |cos theta| for the base coupling).
@@ -248,7 +297,7 @@ class MetalRoughBxDF {
   S specular_fresnel(Float c) const {
     Float sc = detail::schlick_complement(c);
     S out{};
-    if (m_w > 0) out += (S(1) - (S(1) - m_f0) * sc) * ((1 - m_metallic) * m_w);
+    if (m_w > 0 && m_layer_k > 0) out += (S(1) - (S(1) - m_f0) * sc) * (m_layer_k * m_w);
     if (m_metallic > 0) out += (S(1) - (S(1) - m_base) * sc) * m_metallic;
     return out;
   }
@@ -262,7 +311,7 @@ class MetalRoughBxDF {
   Float f0_max() const { return m_f0_max; }
   Float specular() const { return m_w; }
   Float metallic() const { return m_metallic; }
-  Float transmission() const { return (1 - m_metallic) > 0 ? m_trans_k / (1 - m_metallic) : 0; }
+  Float transmission() const { return (1 - m_metallic) > 0 ? (m_trans_k + m_glass_k) / (1 - m_metallic) : 0; }
 
  private:
   // The microfacet lobe at (wo, wi), both in the upper hemisphere:
@@ -300,7 +349,7 @@ class MetalRoughBxDF {
     if (wi.z > 0) {
       if (f && m_diffuse_k > 0) *f = m_base * (m_diffuse_k * inv_pi * base_weight(wo.z) * base_weight(wi.z));
       if (pdf) *pdf = p.diffuse * pdf_cosine_hemisphere(wi.z);
-      if (is_smooth() || !(m_w > 0 || m_metallic > 0) || !microfacet(wo, wi, mf)) return;
+      if (is_smooth() || !((m_w > 0 && m_layer_k > 0) || m_metallic > 0) || !microfacet(wo, wi, mf)) return;
       if (f) *f += specular_fresnel(mf.c) * mf.dg;
       if (pdf) *pdf += p.reflection * mf.pdf;
     } else {
@@ -319,20 +368,55 @@ class MetalRoughBxDF {
     eval_pdf_up(wo, wi, p, nullptr, &pdf);
     return pdf;
   }
-  // 0 reflection, 1 diffuse, 2 transmission, -1 none. Never a lobe of
-  // probability 0 (uc near 1 with probabilities that round short of 1).
+  // 0 reflection, 1 diffuse, 2 transmission, 3 glass, -1 none. Never a lobe
+  // of probability 0 (uc near 1 with probabilities that round short of 1).
   static int choose_lobe(const Lobes& p, Float uc) {
-    int lobe = uc < p.reflection ? 0 : (uc < p.reflection + p.diffuse ? 1 : 2);
-    const Float pr[3] = {p.reflection, p.diffuse, p.transmission};
+    const Float pr[4] = {p.reflection, p.diffuse, p.transmission, p.glass};
+    int lobe = 0;
+    Float acc = pr[0];
+    while (lobe < 3 && !(uc < acc)) acc += pr[++lobe];
     if (pr[lobe] > 0) return lobe;
-    for (int i = 2; i >= 0; --i)
+    for (int i = 3; i >= 0; --i)
       if (pr[i] > 0) return i;
     return -1;
   }
 
+  // The glass lobe at (wo, wi), both as given (not mirrored): (1 - metallic) T
+  // times the dielectric's f, times the base colour for a transmission.
+  S glass_eval(const Vector3f& wo, const Vector3f& wi, TransportMode mode) const {
+    if (!(m_glass_k > 0)) return S{};
+    S f = m_glass.eval(wo, wi, mode);
+    if (wo.z * wi.z < 0) f = f * m_base;
+    return f * m_glass_k;
+  }
+  // The glass lobe was chosen: uc is re-used (rescaled into the lobe's
+  // interval) to pick the dielectric's reflection or refraction. A specular
+  // sample carries the lobe's own f and probability; a rough one the
+  // mixture's f and pdf over every non-specular lobe.
+  std::optional<BSDFSample<S>> sample_glass(const Vector3f& wo, Float uc, Point2f u, TransportMode mode,
+                                            const Lobes& p) const {
+    Float start = p.reflection + p.diffuse + p.transmission;
+    Float uc2 = std::clamp((uc - start) / p.glass, Float(0), one_minus_epsilon);
+    auto bs = m_glass.sample(wo, uc2, u, mode);
+    if (!bs) return std::nullopt;
+    const bool through = bs->is_transmission();
+    if (bs->is_specular()) {
+      bs->f = (through ? bs->f * m_base : bs->f) * m_glass_k;
+      bs->pdf *= p.glass;
+      if (bs->f.is_black()) return std::nullopt;
+      return bs;
+    }
+    bs->f = eval(wo, bs->wi, mode);
+    bs->pdf = pdf(wo, bs->wi, mode);
+    if (!(bs->pdf > 0)) return std::nullopt;
+    return bs;
+  }
+
   TrowbridgeReitz m_distrib;
   S m_base{}, m_f0{};
-  Float m_f0_max = 0, m_w = 0, m_metallic = 0, m_diffuse_k = 0, m_trans_k = 0, m_base_avg = 0;
+  Float m_f0_max = 0, m_w = 0, m_metallic = 0, m_diffuse_k = 0, m_trans_k = 0, m_layer_k = 1, m_base_avg = 0;
+  DielectricBxDF<S> m_glass;
+  Float m_glass_k = 0;  // (1 - metallic) T for a refractive volume, else 0
 };
 
 // The glTF metallic-roughness material with KHR_materials_ior,
@@ -370,7 +454,14 @@ struct MetalRoughMaterial {
   Float ior = 1.5f;               // KHR_materials_ior: >= 1, or 0 for F0 = 1
   Float specular = 1;             // KHR_materials_specular: specularFactor
   RGB specular_color{1};          // KHR_materials_specular: specularColorFactor (may exceed 1)
-  Float transmission = 0;         // KHR_materials_transmission: transmissionFactor (thin-walled)
+  Float transmission = 0;         // KHR_materials_transmission: transmissionFactor
+  // KHR_materials_volume: thickness > 0 (the thicknessFactor; only its sign
+  // matters to a path tracer, which traces the real geometry) makes the
+  // surface the boundary of a refracting volume, absorbing by Beer–Lambert
+  // (attenuation); 0 keeps the transmission thin-walled. See is_volume().
+  Float thickness = 0;
+  VolumeAbsorption attenuation{};  // attenuationColor, attenuationDistance (default: none)
+  Float dispersion = 0;            // KHR_materials_dispersion: 20 / V_d (Abbe number), 0 = none
   Float alpha = 1;                // baseColorFactor's alpha
   AlphaMode alpha_mode = AlphaMode::opaque;
   Float alpha_cutoff = 0.5f;
@@ -378,6 +469,13 @@ struct MetalRoughMaterial {
   // hit's colour is white where a mesh has none.
   std::shared_ptr<const MetalRoughTextures> textures;
   std::string name = "metal_rough";
+
+  // A refracting volume: thickness > 0 with some transmission, and an ior
+  // >= 1 (ior = 0, "F0 = 1", reflects everything and stays thin).
+  bool is_volume() const { return thickness > 0 && transmission > 0 && ior >= 1; }
+  // The volume's index of refraction: the Abbe law of KHR_materials_dispersion
+  // (eta at the d line = ior) when dispersion > 0, else the constant ior.
+  IOR volume_ior() const { return dispersion > 0 ? IOR(AbbeIOR{ior, dispersion}) : IOR(ior); }
 
   // The dielectric F0 from ior alone: ((ior - 1) / (ior + 1))^2; 1 for ior = 0.
   static Float f0_from_ior(Float ior) {
@@ -476,16 +574,21 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   // roughness^2. F0max is the largest channel of the RGB F0, or of its
   // uplift at the path's wavelengths if larger (a smooth spectrum may peak
   // above its RGB channels): energy is conserved at every wavelength.
+  // A refracting volume (is_volume()) gets the glass lobe with eta from
+  // path_eta(volume_ior(), lambda): a dispersive one terminates the
+  // secondary wavelengths when lambda is non-const, as DielectricMaterial does.
   template <class W>
-  static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction& si, const W& lambda) {
+  static MetalRoughBxDF<S> make(const MetalRoughMaterial& m, const SurfaceInteraction& si, W&& lambda) {
     // Untextured materials are clamped in place (no copy per hit).
     detail::MetalRoughParams p = (m.textures || si.color != RGB(1)) ? detail::clamp_metal_rough(detail::textured(m, si))
                                                                     : detail::clamp_metal_rough(m);
     S base = spectrum_traits<S>::albedo(p.base, lambda);
     S f0 = spectrum_traits<S>::albedo(p.dielectric_f0, lambda);
     Float f0_max = std::min(std::max(p.dielectric_f0.max_component(), f0.max_component()), Float(1));
-    return MetalRoughBxDF<S>(TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)), base, f0, f0_max,
-                             p.specular, p.metallic, p.transmission);
+    MetalRoughBxDF<S> b(TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)), base, f0, f0_max,
+                        p.specular, p.metallic, p.transmission);
+    if (m.is_volume() && p.transmission > 0 && p.metallic < 1) b.make_refractive(path_eta(m.volume_ior(), lambda));
+    return b;
   }
 
   // Throws prism::Error, prefixed by `where` and naming the material, on a
@@ -516,12 +619,35 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
       s << "ior = " << m.ior << " must be >= 1 (or exactly 0 for F0 = 1, as in KHR_materials_ior)";
       fail(s.str());
     }
+    if (!(m.thickness >= 0) || !(m.thickness < infinity)) {
+      std::ostringstream s;
+      s << "thickness = " << m.thickness << " must be finite and >= 0";
+      fail(s.str());
+    }
+    if (!(m.dispersion >= 0) || !(m.dispersion < infinity)) {
+      std::ostringstream s;
+      s << "dispersion = " << m.dispersion << " must be finite and >= 0";
+      fail(s.str());
+    }
+    if (m.is_volume()) {
+      try {
+        m.attenuation.validate(m.name);
+        if (m.ior > 1) m.volume_ior().validate(m.name);
+      } catch (const Error& e) {
+        throw Error(std::string(where) + ": " + e.what());
+      }
+    }
     std::string clamped;
     detail::clamp_metal_rough(m, &clamped);
     if (!clamped.empty())
       std::cerr << "prism: warning: " << where << ": material '" << m.name << "': clamped " << clamped << "\n";
   }
-  static bool needs_spectral(const MetalRoughMaterial&) { return false; }
+  // Dispersion (a refracting volume with dispersion > 0) cannot be rendered in RGB.
+  static bool needs_spectral(const MetalRoughMaterial& m) { return m.is_volume() && m.volume_ior().is_dispersive() && m.ior > 1; }
+  // The absorbing interior of a refracting volume, if it absorbs.
+  static const VolumeAbsorption* volume(const MetalRoughMaterial& m) {
+    return m.is_volume() && m.attenuation.active() ? &m.attenuation : nullptr;
+  }
 
   // Normal mapping: the shading normal from normalTexture, in the tangent
   // frame of the mesh's TANGENT (with its handedness) or, without one, of the
@@ -551,6 +677,8 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     // A roughness texture may make texels smooth: conservatively yes.
     if (m.textures && m.textures->metallic_roughness && m.roughness > 0) return true;
     detail::MetalRoughParams p = detail::clamp_metal_rough(m);
+    // A volume of ior 1 passes light straight through, whatever the roughness.
+    if (m.is_volume() && m.ior == 1 && p.transmission > 0 && p.metallic < 1) return true;
     if (!TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)).effectively_smooth()) return false;
     return p.metallic > 0 || p.specular > 0 || p.transmission > 0;
   }

@@ -125,7 +125,8 @@ inline std::string idx(const char* array, int i) { return std::string(array) + "
 // error; in extensionsUsed, one warning each).
 inline bool supported_extension(const std::string& e) {
   static const char* known[] = {"KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular",
-                                "KHR_materials_transmission", "KHR_materials_volume", "KHR_texture_transform",
+                                "KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_dispersion",
+                                "KHR_texture_transform",
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};
   for (const char* k : known)
     if (e == k) return true;
@@ -177,6 +178,8 @@ class Loader {
     int scene = m_opt.scene >= 0 ? m_opt.scene : (m_model.defaultScene >= 0 ? m_model.defaultScene : 0);
     if (m_model.scenes.empty()) {
       if (m_opt.scene >= 0) fail("scenes", "the file has no scenes, so scene " + std::to_string(m_opt.scene) + " does not exist");
+      if (m_model.defaultScene >= 0)
+        fail("scene", "index " + std::to_string(m_model.defaultScene) + " out of range (the file has no scenes)");
       warn("the file has no scenes: nothing to render");
       return std::move(m_out);
     }
@@ -993,9 +996,35 @@ class Loader {
         set(textures->transmission, texture(ref(e, "transmissionTexture"), false,
                                             where + ".extensions.KHR_materials_transmission.transmissionTexture"));
       }
-      if (ext(g.extensions, "KHR_materials_volume") && !m_warned_volume) {
-        m_warned_volume = true;
-        warn(where + ": KHR_materials_volume is rendered thin-walled (no refraction or absorption yet)");
+      // KHR_materials_volume: thicknessFactor > 0 makes a refracting volume
+      // (with transmission), absorbing by Beer–Lambert; the thickness
+      // texture is a rasteriser's stand-in for the geometry prism traces.
+      const auto* vol = ext(g.extensions, "KHR_materials_volume");
+      if (vol) {
+        std::string ew = where + ".extensions.KHR_materials_volume";
+        double thickness = number(vol, "thicknessFactor", 0);
+        check_finite_number(thickness, ew + ".thicknessFactor");
+        if (thickness < 0) fail(ew + ".thicknessFactor", "is negative");
+        mat.thickness = Float(thickness);
+        double distance = number(vol, "attenuationDistance", std::numeric_limits<double>::infinity());
+        if (std::isnan(distance) || !(distance > 0)) fail(ew + ".attenuationDistance", "must be positive");
+        auto c = vec3(vol, "attenuationColor", {1, 1, 1});
+        for (double v : c)
+          if (!(v >= 0 && v <= 1)) fail(ew + ".attenuationColor", "must have 3 numbers in [0, 1]");
+        mat.attenuation = VolumeAbsorption{RGB(Float(c[0]), Float(c[1]), Float(c[2])),
+                                           std::isfinite(distance) ? Float(distance) : infinity};
+      }
+      if (const auto* e = ext(g.extensions, "KHR_materials_dispersion")) {
+        std::string ew = where + ".extensions.KHR_materials_dispersion.dispersion";
+        double d = number(e, "dispersion", 0);
+        check_finite_number(d, ew);
+        if (d < 0) fail(ew, "is negative");
+        mat.dispersion = Float(d);
+        if (d > 0 && !mat.is_volume() && !m_warned_dispersion) {
+          m_warned_dispersion = true;
+          warn(where + ": KHR_materials_dispersion acts only inside a volume (KHR_materials_volume with thicknessFactor > 0 and "
+                       "transmission): ignored");
+        }
       }
       if (any) mat.textures = textures;
     }
@@ -1348,7 +1377,7 @@ class Loader {
   std::map<int, uint32_t> m_material_cache;
   std::map<int, std::optional<AreaEmission>> m_emission_cache;
   std::map<int, std::vector<Channel>> m_channels;
-  bool m_warned_points = false, m_warned_volume = false;
+  bool m_warned_points = false, m_warned_dispersion = false;
 };
 
 }  // namespace gltf_detail

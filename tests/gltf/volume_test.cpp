@@ -1,0 +1,365 @@
+// KHR_materials_volume and KHR_materials_dispersion in the glTF loader:
+// refracting volumes with Beer–Lambert absorption inside, checked against
+// closed forms on boxes built in code (a small glTF written to a temporary
+// file) and on the shared AttenuationTest model (skipped when ../shared is
+// absent), in RGB and spectral mode; the Abbe-law mapping of `dispersion`.
+//
+// Closed form. An orthographic camera looks straight down (-z) through the
+// top and bottom faces of a box of height d (normal incidence everywhere),
+// under a uniform white environment of radiance 1. With tau = c^(d / D) the
+// Beer–Lambert transmittance of one crossing (c = attenuationColor, D =
+// attenuationDistance) and R = ((n - 1) / (n + 1))^2 the Fresnel reflectance
+// of one smooth face at normal incidence, summing the paths that leave
+// through the bottom after 2k inner reflections and through the top after
+// 2k + 1 gives every pixel
+//   L = R + (1 - R)^2 tau (1 + R tau) / (1 - R^2 tau^2) = R + (1 - R)^2 tau / (1 - R tau)
+// (the 1/n^2 radiance factors of entering and leaving cancel). ior 1 gives
+// L = tau exactly.
+#include <catch2/catch.hpp>
+#include "support/skip.hpp"
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <prism/io/gltf.hpp>
+
+using namespace prism;
+using nlohmann::json;
+
+namespace {
+
+const std::string scenes_dir = std::string(PRISM_SHARED_DIR) + "/scenes/";
+bool have_scenes() { return std::filesystem::exists(scenes_dir + "README.md"); }
+
+std::string base64(const std::vector<unsigned char>& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    unsigned v = unsigned(in[i]) << 16 | unsigned(in[i + 1]) << 8 | in[i + 2];
+    for (int k = 3; k >= 0; --k) out += t[(v >> (6 * k)) & 63];
+  }
+  if (i + 1 == in.size()) {
+    unsigned v = unsigned(in[i]) << 16;
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == in.size()) {
+    unsigned v = unsigned(in[i]) << 16 | unsigned(in[i + 1]) << 8;
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += t[(v >> 6) & 63];
+    out += '=';
+  }
+  return out;
+}
+
+// A glTF with one box [-0.5, 0.5]^2 x [0, d] (24 vertices with outward
+// normals, 36 uint16 indices, in a data URI) and one material given as JSON.
+json box_gltf(float d, const json& material, const std::vector<std::string>& extensions) {
+  std::vector<float> pos, nrm;
+  std::vector<uint16_t> idx;
+  auto face = [&](std::array<float, 3> n, std::array<std::array<float, 3>, 4> v) {
+    auto base = uint16_t(pos.size() / 3);
+    for (auto& p : v) {
+      pos.insert(pos.end(), p.begin(), p.end());
+      nrm.insert(nrm.end(), n.begin(), n.end());
+    }
+    // v in counter-clockwise order seen from outside.
+    for (int k : {0, 1, 2, 0, 2, 3}) idx.push_back(uint16_t(base + k));
+  };
+  const float a = 0.5f;
+  face({0, 0, 1}, {{{-a, -a, d}, {a, -a, d}, {a, a, d}, {-a, a, d}}});
+  face({0, 0, -1}, {{{-a, -a, 0}, {-a, a, 0}, {a, a, 0}, {a, -a, 0}}});
+  face({1, 0, 0}, {{{a, -a, 0}, {a, a, 0}, {a, a, d}, {a, -a, d}}});
+  face({-1, 0, 0}, {{{-a, -a, 0}, {-a, -a, d}, {-a, a, d}, {-a, a, 0}}});
+  face({0, 1, 0}, {{{-a, a, 0}, {-a, a, d}, {a, a, d}, {a, a, 0}}});
+  face({0, -1, 0}, {{{-a, -a, 0}, {a, -a, 0}, {a, -a, d}, {-a, -a, d}}});
+  std::vector<unsigned char> bytes(pos.size() * 4 + nrm.size() * 4 + idx.size() * 2);
+  std::memcpy(bytes.data(), pos.data(), pos.size() * 4);
+  std::memcpy(bytes.data() + pos.size() * 4, nrm.data(), nrm.size() * 4);
+  std::memcpy(bytes.data() + pos.size() * 8, idx.data(), idx.size() * 2);
+  size_t n = pos.size() / 3;
+  json g;
+  g["asset"] = {{"version", "2.0"}};
+  g["extensionsUsed"] = extensions;
+  g["scene"] = 0;
+  g["scenes"] = json::array({{{"nodes", {0}}}});
+  g["nodes"] = json::array({{{"mesh", 0}}});
+  g["meshes"] = json::array(
+      {{{"primitives", json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"material", 0}}})}}});
+  g["materials"] = json::array({material});
+  g["buffers"] = json::array(
+      {{{"byteLength", bytes.size()}, {"uri", "data:application/octet-stream;base64," + base64(bytes)}}});
+  g["bufferViews"] = json::array({{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", n * 12}},
+                                  {{"buffer", 0}, {"byteOffset", n * 12}, {"byteLength", n * 12}},
+                                  {{"buffer", 0}, {"byteOffset", n * 24}, {"byteLength", idx.size() * 2}}});
+  g["accessors"] = json::array({{{"bufferView", 0},
+                                 {"componentType", 5126},
+                                 {"count", n},
+                                 {"type", "VEC3"},
+                                 {"min", {-a, -a, 0}},
+                                 {"max", {a, a, d}}},
+                                {{"bufferView", 1}, {"componentType", 5126}, {"count", n}, {"type", "VEC3"}},
+                                {{"bufferView", 2}, {"componentType", 5123}, {"count", idx.size()}, {"type", "SCALAR"}}});
+  return g;
+}
+
+// A transmissive, smooth, white volume material.
+json volume_material(double ior, std::array<double, 3> color, double distance, double thickness = 1,
+                     double dispersion = 0) {
+  json m;
+  m["pbrMetallicRoughness"] = {{"metallicFactor", 0}, {"roughnessFactor", 0}};
+  m["extensions"]["KHR_materials_transmission"] = {{"transmissionFactor", 1}};
+  m["extensions"]["KHR_materials_ior"] = {{"ior", ior}};
+  json v = {{"thicknessFactor", thickness}, {"attenuationColor", color}};
+  if (std::isfinite(distance)) v["attenuationDistance"] = distance;
+  m["extensions"]["KHR_materials_volume"] = v;
+  if (dispersion != 0) m["extensions"]["KHR_materials_dispersion"] = {{"dispersion", dispersion}};
+  return m;
+}
+
+std::string write_temp(const std::string& name, const json& g) {
+  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_volume";
+  std::filesystem::create_directories(dir);
+  std::string path = dir + "/" + name;
+  std::ofstream(path) << g.dump();
+  return path;
+}
+
+double closed_form(double n, double tau) {
+  double R = (n - 1) * (n - 1) / ((n + 1) * (n + 1));
+  return R + (1 - R) * (1 - R) * tau / (1 - R * tau);
+}
+
+// Renders a small orthographic window, looking down -z, centred on (x, y),
+// under a uniform white environment, and checks the window's mean per
+// channel against expected within 4 sigma of the mean plus `bias` (pooled
+// over the window's 16 pixels of 64 samples). Without Russian roulette: the
+// samples are then 1 (reflected off the top face) or the Beer–Lambert
+// product of the path inside, so the estimate is exact at ior 1 and has a
+// small variance otherwise (with roulette a sample is 0 or the throughput
+// over its survival probability: a sigma ~30 times larger, and a pixel whose
+// samples all survived shows a sample variance of 0). Every pixel must be finite.
+template <class S, class G>
+void check_window(G& g, Float x, Float y, Float half, const std::array<double, 3>& expected, double bias,
+                  const std::string& label) {
+  const int w = 4, h = 4;
+  OrthographicCamera cam(look_at_camera_to_world({x, y, 10}, {x, y, 0}, {0, 1, 0}), 2 * half, w, h);
+  Film film(w, h);
+  RenderOptions opt;
+  opt.spp = 64;
+  opt.threads = 1;
+  PathOptions popt;
+  popt.rr_min_depth = 1000;
+  render(g.scene, cam, PathIntegrator(popt), film, opt);
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0, var = 0;
+    for (int py = 0; py < h; ++py)
+      for (int px = 0; px < w; ++px) {
+        double v = film.pixel(px, py)[c];
+        CHECK(std::isfinite(v));
+        sum += v;
+        var += double(film.variance(px, py)[c]);
+      }
+    double mean = sum / (w * h), sigma = std::sqrt(var) / (w * h);
+    INFO(label << " channel " << c << ": " << mean << " expected " << expected[size_t(c)] << " sigma " << sigma);
+    CHECK(std::abs(mean - expected[size_t(c)]) <= 4 * sigma + bias);
+  }
+}
+
+template <class S>
+void check_box(double ior, double d, std::array<double, 3> color, double distance, double bias) {
+  std::string path = write_temp("box.gltf", box_gltf(float(d), volume_material(ior, color, distance),
+                                                     {"KHR_materials_transmission", "KHR_materials_ior",
+                                                      "KHR_materials_volume"}));
+  auto g = load_gltf<S>(path);
+  CHECK(g.warnings.empty());
+  const auto& mat = std::get<0>(g.scene.materials()[0]);
+  CHECK(mat.is_volume());
+  g.scene.add_light(UniformInfiniteLight<S>(RGB(1.f)));
+  g.scene.build();
+  std::array<double, 3> expected;
+  for (size_t c = 0; c < 3; ++c) expected[c] = closed_form(ior, std::pow(color[c], d / distance));
+  INFO("ior " << ior << " thickness " << d << " distance " << distance);
+  check_window<S>(g, 0, 0, 0.3f, expected, bias, "box");
+}
+
+}  // namespace
+
+TEST_CASE("glTF volume box transmits the Beer-Lambert closed form, RGB", "[gltf][volume]") {
+  const std::array<double, 3> c{0.1, 0.5, 0.9};
+  check_box<RGB>(1.0, 1.0, c, 1.0, 1e-5);  // no refraction: exactly tau
+  check_box<RGB>(1.0, 0.5, c, 2.0, 1e-5);
+  check_box<RGB>(1.5, 1.0, c, 1.0, 1e-5);  // refracting, with inner reflections
+  check_box<RGB>(1.5, 2.0, c, 0.5, 1e-5);
+  check_box<RGB>(1.5, 1.0, {1, 1, 1}, std::numeric_limits<double>::infinity(), 1e-5);  // no absorption
+}
+
+// Spectral: the attenuation colour is uplifted and attenuated per wavelength,
+// and the power of a spectrum is not the spectrum of the power, so the film's
+// RGB is allowed 0.02 beside the 4 sigma (as tests/integrators/volume_test.cpp).
+TEST_CASE("glTF volume box transmits the Beer-Lambert closed form, spectral", "[gltf][volume][spectral]") {
+  const std::array<double, 3> c{0.3, 0.6, 0.9};
+  check_box<Spectral>(1.0, 1.0, c, 1.0, 0.02);
+  check_box<Spectral>(1.5, 1.0, c, 2.0, 0.02);
+}
+
+TEST_CASE("glTF volume: thickness 0 stays thin-walled, bad attenuation values are errors", "[gltf][volume][validate]") {
+  const std::vector<std::string> ext{"KHR_materials_transmission", "KHR_materials_volume"};
+  {
+    auto g = load_gltf<RGB>(write_temp("thin.gltf", box_gltf(1, volume_material(1.5, {0.5, 0.5, 0.5}, 1, 0), ext)));
+    const auto& mat = std::get<0>(g.scene.materials()[0]);
+    CHECK_FALSE(mat.is_volume());
+    CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::volume(mat) == nullptr);
+    SurfaceInteraction si;
+    CHECK_FALSE(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat, si, RGBWavelengths{}).is_refractive());
+  }
+  {
+    auto g = load_gltf<RGB>(write_temp("vol.gltf", box_gltf(1, volume_material(1.5, {0.5, 0.5, 0.5}, 1, 0.01), ext)));
+    const auto& mat = std::get<0>(g.scene.materials()[0]);
+    CHECK(mat.is_volume());
+    CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::volume(mat) != nullptr);
+    SurfaceInteraction si;
+    CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat, si, RGBWavelengths{}).is_refractive());
+    for (const auto& w : g.warnings) CHECK(w.find("thin-walled") == std::string::npos);
+  }
+  auto expect_error = [&](const json& material, const std::string& element) {
+    std::string path = write_temp("bad_volume.gltf", box_gltf(1, material, ext));
+    try {
+      (void)load_gltf<RGB>(path);
+      FAIL("no error for " << element);
+    } catch (const Error& e) {
+      std::string what = e.what();
+      INFO(what);
+      CHECK(what.find(element) != std::string::npos);
+      CHECK(what.find("bad_volume.gltf") != std::string::npos);
+    }
+  };
+  expect_error(volume_material(1.5, {1.5, 0.5, 0.5}, 1),
+               "materials[0].extensions.KHR_materials_volume.attenuationColor");
+  expect_error(volume_material(1.5, {0.5, 0.5, 0.5}, -1),
+               "materials[0].extensions.KHR_materials_volume.attenuationDistance");
+  expect_error(volume_material(1.5, {0.5, 0.5, 0.5}, 1, -2),
+               "materials[0].extensions.KHR_materials_volume.thicknessFactor");
+  expect_error(volume_material(1.5, {0.5, 0.5, 0.5}, 1, 1, -0.5),
+               "materials[0].extensions.KHR_materials_dispersion.dispersion");
+}
+
+TEST_CASE("glTF dispersion 0.312 is the Abbe law with V_d = 64.1", "[gltf][volume][dispersion]") {
+  const std::vector<std::string> ext{"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                                     "KHR_materials_dispersion"};
+  const double n_d = 1.5168, dispersion = 0.312;
+  auto g = load_gltf<Spectral>(write_temp("dispersive.gltf",
+                                          box_gltf(1, volume_material(n_d, {0.9, 0.9, 0.9}, 2, 1, dispersion), ext)));
+  CHECK(g.warnings.empty());
+  const auto& mat = std::get<0>(g.scene.materials()[0]);
+  REQUIRE(mat.is_volume());
+  IOR ior = mat.volume_ior();
+  CHECK(ior.is_dispersive());
+  CHECK(bxdf_traits<MetalRoughBxDF<Spectral>>::needs_spectral(mat));
+  const double V = 20 / dispersion;
+  CHECK(V == Approx(64.1).epsilon(1e-3));
+  // The extension's closed form at two wavelengths, and the Abbe number's
+  // definition (n_F - n_C = (n_d - 1) / V_d, to the rounding of its constants).
+  for (double l : {450.0, 650.0}) {
+    double expected = n_d + (n_d - 1) / V * (523655 / (l * l) - 1.5168);
+    CHECK(double(ior(Float(l))) == Approx(expected).epsilon(1e-6));
+  }
+  CHECK(double(ior(lambda_d_nm)) == Approx(n_d).epsilon(1e-4));
+  CHECK(double(ior(lambda_F_nm) - ior(lambda_C_nm)) == Approx((n_d - 1) / V).epsilon(2e-3));
+  // The BxDF's eta is the hero wavelength's, and building it at a path vertex
+  // terminates the secondary wavelengths.
+  auto lambda = SampledWavelengths<4>::from({450, 520, 610, 680}, {1, 1, 1, 1});
+  SurfaceInteraction si;
+  auto b = bxdf_traits<MetalRoughBxDF<Spectral>>::make(mat, si, lambda);
+  REQUIRE(b.is_refractive());
+  CHECK(double(b.glass().eta()) == Approx(n_d + (n_d - 1) / V * (523655 / (450.0 * 450.0) - 1.5168)).epsilon(1e-6));
+  CHECK(lambda.secondary_terminated());
+  // A spectral render of the dispersive volume is finite.
+  g.scene.add_light(UniformInfiniteLight<Spectral>(RGB(1.f)));
+  g.scene.build();
+  CHECK(g.scene.needs_spectral());
+  auto cam = gltf_framing_camera(g.bounds, 16, 16);
+  Film film(16, 16);
+  RenderOptions opt;
+  opt.spp = 16;
+  opt.threads = 1;
+  render(g.scene, cam, PathIntegrator(), film, opt);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) CHECK(film.pixel(x, y).is_finite());
+}
+
+// AttenuationTest: rows 2-5 (thickness factor, thickness texture, node scale,
+// attenuation distance) hold volume cubes whose Beer–Lambert transmittance
+// straight through is c^s in column s (s = 0.25, 0.5, 1, 1.5, 2; c = (0.1,
+// 0.5, 0.9)): each cube is checked face-on against the closed form above
+// (ior 1.5). Row 1, the answer key, is a thin-walled quad of base colour c^s:
+// it shows F0 + (1 - F0) c^s (F0 = 0.04). The backdrop and labels are
+// dropped (their nodes removed from the scene) so the cubes are seen against
+// the uniform environment.
+TEST_CASE("AttenuationTest cubes follow the Beer-Lambert closed form in every row", "[gltf][volume][models]") {
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  const std::string dir = scenes_dir + "AttenuationTest/glTF/";
+  {  // the model as it is: no warning about thin walls, renders finite
+    auto g = load_gltf<RGB>(dir + "AttenuationTest.gltf");
+    for (const auto& w : g.warnings) CHECK(w.find("thin-walled") == std::string::npos);
+    int volumes = 0;
+    for (const auto& m : g.scene.materials()) volumes += std::get<0>(m).is_volume() ? 1 : 0;
+    CHECK(volumes == 11);
+    g.scene.add_light(UniformInfiniteLight<RGB>(RGB(1.f)));
+    g.scene.build();
+    Film film(32, 32);
+    RenderOptions opt;
+    opt.spp = 4;
+    opt.threads = 1;
+    render(g.scene, gltf_framing_camera(g.bounds, 32, 32), PathIntegrator(), film, opt);
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) CHECK(film.pixel(x, y).is_finite());
+  }
+  json gltf;
+  {
+    std::ifstream f(dir + "AttenuationTest.gltf");
+    gltf = json::parse(f);
+  }
+  // The edited copy goes to the temporary folder, with the files it refers to.
+  const std::string tmp = std::string(PRISM_TEST_TMP_DIR) + "/gltf_volume/";
+  std::filesystem::create_directories(tmp);
+  for (const char* f : {"AttenuationTest.bin", "AttenuationLabels.png", "PlainGrid.png", "ThicknessTexture.png"})
+    std::filesystem::copy_file(dir + f, tmp + f, std::filesystem::copy_options::overwrite_existing);
+  json kept = json::array();
+  std::map<std::string, std::array<double, 3>> translation;
+  for (size_t i = 0; i < gltf["nodes"].size(); ++i) {
+    const auto& n = gltf["nodes"][i];
+    std::string name = n.value("name", "");
+    if (name != "Labels" && name != "MeterGrid") kept.push_back(i);
+    if (n.contains("translation")) translation[name] = n["translation"].get<std::array<double, 3>>();
+  }
+  gltf["scenes"][0]["nodes"] = kept;
+  auto g = load_gltf<RGB>(write_temp("attenuation_cubes.gltf", gltf));
+  g.scene.add_light(UniformInfiniteLight<RGB>(RGB(1.f)));
+  g.scene.build();
+  const std::array<double, 3> c{0.1, 0.5, 0.9};
+  const double F0 = 0.04;
+  for (const char* s : {"0.25", "0.50", "1.0", "1.5", "2.0"}) {
+    double size = std::stod(s);
+    std::array<double, 3> volume_expected, sample_expected;
+    for (size_t k = 0; k < 3; ++k) {
+      double tau = std::pow(c[k], size);
+      volume_expected[k] = closed_form(1.5, tau);
+      sample_expected[k] = F0 + (1 - F0) * tau;
+    }
+    // Row 3 is one mesh whose cubes sit under row 2's, at y = 0.
+    auto r2 = translation.at(std::string("R2_Block_") + s);
+    const Float half = Float(std::min(0.05, size / 8));
+    for (std::string row : {"R2_Block_", "R4_Block_", "R5_Block_"}) {
+      auto t = translation.at(row + s);
+      check_window<RGB>(g, Float(t[0]), Float(t[1]), half, volume_expected, 1e-4, row + s);
+    }
+    check_window<RGB>(g, Float(r2[0]), 0, half, volume_expected, 1e-4, std::string("R3 row, column ") + s);
+    auto t1 = translation.at(std::string("R1_Sample_") + s);
+    check_window<RGB>(g, Float(t1[0]), Float(t1[1]), half, sample_expected, 1e-4, std::string("R1_Sample_") + s);
+  }
+}
