@@ -11,8 +11,10 @@
 //  - wall clock: the configurations alternate run by run (so that a slow
 //    phase of a loaded machine hits all alike), one thread; median and best;
 //  - callgrind: the instructions executed by one small render (valgrind
-//    --tool=callgrind, collection toggled on around render() only), which do
-//    not depend on the machine's load;
+//    --tool=callgrind, instrumentation on around render() only), which do
+//    not depend on the machine's load; run on instantiation_bench_callgrind,
+//    this program built without AVX-512 (valgrind 3.19 cannot decode it),
+//    found beside this one;
 //  - whether the image is bitwise that of the minimal instantiation.
 // Writes bench/results/instantiation.csv (or argv's --csv path).
 // Usage: instantiation_bench [--runs N] [--csv PATH] [--no-callgrind]
@@ -20,7 +22,8 @@
 #if __has_include(<valgrind/callgrind.h>)
 #include <valgrind/callgrind.h>
 #else
-#define CALLGRIND_TOGGLE_COLLECT
+#define CALLGRIND_START_INSTRUMENTATION
+#define CALLGRIND_STOP_INSTRUMENTATION
 #endif
 #include <algorithm>
 #include <cstdio>
@@ -106,9 +109,9 @@ Result render_one(const std::string& scene_name, int w, int h, int samples, bool
   opt.threads = 1;
   PerspectiveCamera cam = default_camera(w, h);
   Result r;
-  if (callgrind) CALLGRIND_TOGGLE_COLLECT;
+  if (callgrind) CALLGRIND_START_INSTRUMENTATION;
   r.stats = render(scene, cam, PathIntegrator{}, film, opt);
-  if (callgrind) CALLGRIND_TOGGLE_COLLECT;
+  if (callgrind) CALLGRIND_STOP_INSTRUMENTATION;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) r.pixels.push_back(film.pixel(x, y));
   return r;
@@ -171,14 +174,14 @@ double best(const std::vector<double>& v) { return *std::min_element(v.begin(), 
 // Instructions callgrind counted in one --one run of this program.
 unsigned long long callgrind_ir(const Config& c, const std::string& self) {
   std::string out = "/tmp/instantiation_bench." + std::to_string(::getpid()) + ".cg";
-  std::string cmd = "valgrind --tool=callgrind --collect-atstart=no --callgrind-out-file=" + out + " '" + self +
+  std::string cmd = "valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file=" + out + " '" + self +
                     "' --one " + c.scene + " " + c.colour + " " + c.set + " >/dev/null 2>&1";
   if (std::system(cmd.c_str()) != 0) return 0;
   std::ifstream f(out);
   std::string line;
   unsigned long long ir = 0;
   while (std::getline(f, line))
-    if (line.rfind("totals:", 0) == 0 || line.rfind("summary:", 0) == 0) ir = std::stoull(line.substr(line.find(':') + 1));
+    if (line.rfind("totals:", 0) == 0) ir = std::stoull(line.substr(line.find(':') + 1));
   std::filesystem::remove(out);
   return ir;
 }
@@ -190,7 +193,7 @@ int main(int argc, char** argv) {
   if (argc == 5 && std::string(argv[1]) == "--one") {
     for (auto& c : configs)
       if (c.scene == argv[2] && c.colour == argv[3] && c.set == argv[4]) {
-        (void)srgb_to_spectrum_table();
+        if (c.colour == "spectral") (void)srgb_to_spectrum_table();  // fitted before counting starts
         Result r = c.run(cg_width, cg_height, cg_spp, true);
         std::printf("%llu rays\n", (unsigned long long)r.stats.rays);
         return 0;
@@ -233,7 +236,12 @@ int main(int argc, char** argv) {
   for (int r = 0; r < runs; ++r)
     for (auto& c : configs) c.seconds.push_back(c.run(width, height, spp, false).stats.seconds);
 
-  std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+  std::filesystem::path self_path = std::filesystem::read_symlink("/proc/self/exe");
+  std::string self = (self_path.parent_path() / "instantiation_bench_callgrind").string();
+  if (callgrind && !std::filesystem::exists(self)) {
+    std::fprintf(stderr, "instantiation_bench: %s not found: no callgrind counts\n", self.c_str());
+    callgrind = false;
+  }
   if (callgrind)
     for (auto& c : configs) c.ir = callgrind_ir(c, self);
 
