@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
     double med_ratio = med / median(m.seconds), best_ratio = bst / best(m.seconds);
     double ir_ratio = m.ir ? double(c.ir) / double(m.ir) : 0;
     char line[512];
-    std::snprintf(line, sizeof line, "%s,%s,%s,%s,%d,%.5f,%.5f,%.4f,%.4f,%llu,%.5f,%d,%.3g\n", c.scene.c_str(),
+    std::snprintf(line, sizeof line, "%s,%s,%s,\"%s\",%d,%.5f,%.5f,%.4f,%.4f,%llu,%.5f,%d,%.3g\n", c.scene.c_str(),
                   c.colour.c_str(), c.set.c_str(), c.adds.c_str(), runs, med, bst, med_ratio, best_ratio, c.ir,
                   ir_ratio, int(c.bitwise), c.max_rel_diff);
     out << line;
