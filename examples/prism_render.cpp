@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <type_traits>
 #include <vector>
 #include <CLI/CLI.hpp>
 #include <prism/prism.hpp>
@@ -131,6 +132,10 @@ struct Job {
   double target_error = 0;  // adaptive sampling (0: off): target relative error per pixel
   int min_spp = 16, max_spp = 1024;
   std::string spp_map;  // adaptive: the per-pixel sample counts as an image
+  bool force_full = false;        // --instantiation full
+  bool colour_auto = false;       // neither --rgb nor --spectral: the scene decides
+  std::string default_scene = "cornell";
+  std::string instantiation;      // the summary's instantiation line
 };
 
 // What the render reports, with or without MPI.
@@ -271,6 +276,7 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
         job.target_error, (unsigned long long)st.samples, double(st.samples) / (double(job.width) * job.height),
         std::min(job.min_spp, job.max_spp), job.max_spp, st.adaptive_rounds, st.adaptive_max_error,
         st.adaptive_mean_error, (unsigned long long)st.adaptive_capped);
+  std::printf("prism-render: instantiation: %s\n", job.instantiation.c_str());
   if (distributed()) {
     for (const auto& line : result.rank_lines) std::printf("prism-render:   %s\n", line.c_str());
     std::printf("prism-render: balance (slowest rank / mean) %.3f, rank 0 waited %.3f s, reduction %.3f s\n",
@@ -279,14 +285,14 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   return st.cancelled ? 130 : 0;
 }
 
-template <class S>
-int run_default(const Job& job, const char* model) {
+// The built-in scene in the instantiation (colour model S, BxDF set Set)
+// that run() picked.
+template <class S, class Set>
+int run_default(const Job& job, const char* model, const prism::CornellBoxOptions& box) {
   using namespace prism;
-  Scene<S> scene;
+  Scene<S, Set> scene;
   PerspectiveCamera camera;
   try {
-    CornellBoxOptions box;
-    box.box_motion = job.shutter > 0;  // the tall box moves between times 0 and 1
     build_cornell_box(scene, box);
     scene.set_light_selection(light_selection(job.light_sampler));
     scene.build();
@@ -303,8 +309,8 @@ int run_default(const Job& job, const char* model) {
 // A glTF scene: its camera (--camera N, else the first, else one framing the
 // scene's bounds), its lights, --env, and a white environment when it has no
 // punctual light.
-template <class S>
-int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
+template <class S, class Set>
+int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
   using namespace prism;
   if (job.camera >= int(g.cameras.size()))
     return fail("--camera " + std::to_string(job.camera) + ": the scene has " + std::to_string(g.cameras.size()) +
@@ -323,6 +329,15 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
   } catch (const Error& e) {
     return fail(e.what());
   }
+  {
+    // The loader maps every glTF material to MetalRoughMaterial (which never
+    // needs spectra), so the set was chosen before loading: metal_rough, or
+    // full when forced; the colour model is RGB unless --spectral.
+    SceneFeatures f = scene_features(g.scene);
+    Instantiation inst{spectrum_traits<S>::is_spectral ? ColourModel::spectral : ColourModel::rgb,
+                       job.force_full ? BxDFSetKind::full : BxDFSetKind::metal_rough};
+    job.instantiation = describe(inst, f) + (job.force_full ? " [forced: --instantiation full]" : " [auto]");
+  }
   try {
     if (job.camera >= 0 || !g.cameras.empty()) {
       const GltfCamera& c = g.cameras[size_t(std::max(job.camera, 0))];
@@ -340,16 +355,21 @@ int run_gltf(const Job& job, const char* model, prism::GltfScene<S>& g) {
   }
 }
 
-template <class S>
+template <class S, template <class> class SetT>
 int run_gltf_file(const Job& job, const char* model, const std::string& path) {
+  using Set = SetT<S>;
   prism::GltfOptions gopt;
   gopt.time = job.time;
   gopt.shutter = job.shutter;
   try {
-    auto g = prism::load_gltf<S>(path, gopt);
+    auto g = prism::load_gltf<S, Set>(path, gopt);
+    // A material that RGB cannot render exactly (a dispersive volume): load
+    // it again for spectral rendering unless --rgb was asked for.
+    if constexpr (std::is_same_v<S, prism::RGB>)
+      if (job.colour_auto && g.scene.needs_spectral()) return run_gltf_file<prism::Spectral, SetT>(job, "spectral", path);
     if (!job.quiet && g_rank == 0)
       for (const auto& w : g.warnings) std::fprintf(stderr, "prism-render: warning: %s\n", w.c_str());
-    return run_gltf<S>(job, model, g);
+    return run_gltf<S, Set>(job, model, g);
   } catch (const prism::Error& e) {
     return fail(e.what());
   }
@@ -450,6 +470,15 @@ int run(int argc, char** argv) {
   app.add_option("--spp-map", job.spp_map,
                  "Adaptive sampling: write each pixel's sample count to this image (.png: count / --max-spp as grey; "
                  ".exr, .pfm: the count)");
+  std::string instantiation = "auto";
+  app.add_option("--instantiation", instantiation,
+                 "Which compiled renderer renders the scene: auto (the smallest that renders it exactly: colour "
+                 "model and BxDF set; docs/instantiation.md) or full (every built-in BxDF)")
+      ->check(CLI::IsMember({"auto", "full"}));
+  app.add_option("--default-scene", job.default_scene,
+                 "The built-in scene: cornell (the Cornell box with a glass prism, gold and frosted glass) or "
+                 "cornell-diffuse (its diffuse walls, boxes and a white sphere only)")
+      ->check(CLI::IsMember({"cornell", "cornell-diffuse"}));
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)
   // Threads per rank by default: the node's cores shared among its ranks.
@@ -489,20 +518,51 @@ int run(int argc, char** argv) {
     for (const auto& o : job.outputs)
       if (auto err = check_output(o); !err.empty()) return fail(err);
 
+  job.force_full = instantiation == "full";
+  using prism::RGB;
+  using prism::Spectral;
   if (!scene_path.empty()) {
-    // glTF materials render exactly in RGB: spectral only when asked.
-    return spectral ? run_gltf_file<prism::Spectral>(job, "spectral", scene_path)
-                    : run_gltf_file<prism::RGB>(job, "rgb", scene_path);
+    // glTF materials render exactly in RGB, except dispersive volumes
+    // (run_gltf_file switches to spectral for them unless --rgb is given).
+    job.colour_auto = !spectral && !rgb;
+    if (job.force_full)
+      return spectral ? run_gltf_file<Spectral, prism::full_bxdf_set>(job, "spectral", scene_path)
+                      : run_gltf_file<RGB, prism::full_bxdf_set>(job, "rgb", scene_path);
+    return spectral ? run_gltf_file<Spectral, prism::metal_rough_bxdf_set>(job, "spectral", scene_path)
+                    : run_gltf_file<RGB, prism::metal_rough_bxdf_set>(job, "rgb", scene_path);
   }
   if (!job.env.empty()) return fail("--env needs a glTF scene");
-  // The colour model: as asked, else the smallest that renders the scene
-  // exactly (RGB unless a material needs spectra; docs/spectral.md).
-  if (!spectral && !rgb) {
-    prism::Scene<prism::RGB> probe;
-    build_cornell_box(probe);
-    spectral = probe.needs_spectral();
+  if (job.default_scene != "cornell" && job.default_scene != "cornell-diffuse")
+    return fail("--default-scene " + job.default_scene + ": unknown (use cornell or cornell-diffuse)");
+  // The instantiation: the smallest that renders the scene exactly
+  // (render/instantiation.hpp): the colour model as asked, else RGB unless a
+  // material needs spectra (docs/spectral.md); the smallest compiled BxDF set
+  // holding every BxDF the scene uses. A probe in the full set tells.
+  prism::CornellBoxOptions box =
+      job.default_scene == "cornell-diffuse" ? prism::diffuse_cornell_box_options() : prism::CornellBoxOptions{};
+  box.box_motion = job.shutter > 0;  // the tall box moves between times 0 and 1
+  prism::SceneFeatures features;
+  try {
+    prism::Scene<RGB, prism::full_bxdf_set<RGB>> probe;
+    build_cornell_box(probe, box);
+    probe.build();
+    features = prism::scene_features(probe);
+  } catch (const prism::Error& e) {
+    return fail(e.what());
   }
-  return spectral ? run_default<prism::Spectral>(job, "spectral") : run_default<prism::RGB>(job, "rgb");
+  std::optional<prism::ColourModel> requested;
+  if (spectral) requested = prism::ColourModel::spectral;
+  if (rgb) requested = prism::ColourModel::rgb;
+  prism::Instantiation inst =
+      prism::pick_instantiation(features, requested, {prism::BxDFSetKind::diffuse, prism::BxDFSetKind::full});
+  if (job.force_full) inst.bxdfs = prism::BxDFSetKind::full;
+  job.instantiation = describe(inst, features) + (job.force_full ? " [forced: --instantiation full]" : " [auto]");
+  const bool diffuse = inst.bxdfs == prism::BxDFSetKind::diffuse;
+  if (inst.colour == prism::ColourModel::spectral)
+    return diffuse ? run_default<Spectral, prism::diffuse_bxdf_set<Spectral>>(job, "spectral", box)
+                   : run_default<Spectral, prism::full_bxdf_set<Spectral>>(job, "spectral", box);
+  return diffuse ? run_default<RGB, prism::diffuse_bxdf_set<RGB>>(job, "rgb", box)
+                 : run_default<RGB, prism::full_bxdf_set<RGB>>(job, "rgb", box);
 }
 
 }  // namespace

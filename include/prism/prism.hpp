@@ -54,3 +54,4 @@
 #include "prism/render/render.hpp"
 #include "prism/render/default_scene.hpp"
 #include "prism/render/many_lights_scene.hpp"
+#include "prism/render/instantiation.hpp"

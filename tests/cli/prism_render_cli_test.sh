@@ -35,6 +35,8 @@ expect_error --aov --out "$tmp/aov.png"
 expect_error --shutter nan
 expect_error --time inf --shutter 1
 expect_error --light-sampler nope
+expect_error --instantiation nope
+expect_error --default-scene nope
 # glTF scenes: a one-triangle file written here, and broken ones.
 tri="$tmp/tri.gltf"
 cat > "$tri" <<'JSON'
@@ -115,6 +117,28 @@ if [ "$rc" != 0 ] || ! printf '%s\n' "$out" | grep -qF "bvh light selection"; th
 else echo "ok: glTF with --light-sampler bvh"; fi
 # The default image with auto selection is the power-selection image, bit for bit.
 cmp -s "$tmp/ls_auto.pfm" "$tmp/ls_power.pfm" || { echo "FAIL: auto differs from power on the default scene"; fails=$((fails+1)); }
+
+# Instantiations (docs/instantiation.md): the summary names the one picked;
+# the diffuse box takes the diffuse set, the default scene and a forced run
+# the full one, a glTF file the metal_rough one; minimal and full render the
+# diffuse box bit for bit alike.
+check_inst() {  # want, then the arguments
+  local want="$1"; shift
+  out=$("$bin" --width 12 --height 12 --spp 2 --quiet "$@" 2>/dev/null); rc=$?
+  if [ "$rc" != 0 ] || ! printf '%s\n' "$out" | grep -qF "instantiation: $want"; then
+    echo "FAIL: '$*' did not pick '$want' ($rc): $out"; fails=$((fails+1))
+  else echo "ok: '$*' -> $want"; fi
+}
+check_inst "rgb, bxdfs {diffuse} (diffuse)" --default-scene cornell-diffuse --out "$tmp/inst_min.pfm"
+check_inst "rgb, bxdfs {diffuse, dielectric, conductor, thin_dielectric, metal_rough} (full)" \
+  --default-scene cornell-diffuse --instantiation full --out "$tmp/inst_full.pfm"
+check_inst "spectral, bxdfs {diffuse} (diffuse)" --default-scene cornell-diffuse --spectral --out "$tmp/inst_s.pfm"
+check_inst "spectral, bxdfs {diffuse, dielectric, conductor, thin_dielectric, metal_rough} (full)" --out "$tmp/inst_d.pfm"
+check_inst "rgb, bxdfs {metal_rough} (metal_rough)" "$tri" --out "$tmp/inst_tri.pfm"
+check_inst "rgb, bxdfs {diffuse, dielectric, conductor, thin_dielectric, metal_rough} (full)" "$tri" \
+  --instantiation full --out "$tmp/inst_tri_full.pfm"
+cmp -s "$tmp/inst_min.pfm" "$tmp/inst_full.pfm" || { echo "FAIL: minimal and full differ on the diffuse box"; fails=$((fails+1)); }
+cmp -s "$tmp/inst_tri.pfm" "$tmp/inst_tri_full.pfm" || { echo "FAIL: metal_rough and full differ on a glTF file"; fails=$((fails+1)); }
 
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

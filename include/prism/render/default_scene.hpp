@@ -147,15 +147,45 @@ inline TriangleMesh make_cylindrical_lens(Point2f centre, Point2f axis, Float ap
   return m;
 }
 
-// Fills a scene whose BxDF set includes DiffuseBxDF, ConductorBxDF and
-// DielectricBxDF (as default_bxdf_set does).
+// The default scene without its prism, lens, gold and glass: every material
+// diffuse, so that a renderer with only DiffuseBxDF renders it
+// (render/instantiation.hpp).
+inline CornellBoxOptions diffuse_cornell_box_options() {
+  CornellBoxOptions o;
+  o.prism = false;
+  o.gold_sphere = false;
+  return o;
+}
+
+namespace detail {
+// Adds m if the scene's BxDF set has a BxDF for it; otherwise throws naming
+// what the options asked for.
+template <class Scene, class M>
+uint32_t add_cornell_material(Scene& scene, const M& m, const char* what) {
+  if constexpr (std::is_constructible_v<typename Scene::material_type, const M&>) {
+    const typename Scene::material_type v(m);
+    return scene.add_material(v);
+  } else {
+    (void)scene;
+    (void)m;
+    throw Error(std::string("default scene: the ") + what +
+                " needs a BxDF set with its BxDF (use default_bxdf_set or full_bxdf_set, or turn it off in "
+                "CornellBoxOptions)");
+  }
+}
+}  // namespace detail
+
+// Fills a scene. Its BxDF set needs DiffuseBxDF, and ConductorBxDF and
+// DielectricBxDF for the options that add gold, glass and the prism (as
+// default_bxdf_set has); diffuse_bxdf_set suffices for
+// diffuse_cornell_box_options().
 template <class Scene>
 void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
   const AreaEmission& light = opt.light;
-  uint32_t white = scene.add_material(DiffuseMaterial{RGB(0.73f, 0.73f, 0.73f)});
-  uint32_t red = scene.add_material(DiffuseMaterial{RGB(0.65f, 0.05f, 0.05f)});
-  uint32_t green = scene.add_material(DiffuseMaterial{RGB(0.12f, 0.45f, 0.15f)});
-  uint32_t black = scene.add_material(DiffuseMaterial{RGB(0.f)});
+  uint32_t white = detail::add_cornell_material(scene, DiffuseMaterial{RGB(0.73f, 0.73f, 0.73f)}, "white wall");
+  uint32_t red = detail::add_cornell_material(scene, DiffuseMaterial{RGB(0.65f, 0.05f, 0.05f)}, "red wall");
+  uint32_t green = detail::add_cornell_material(scene, DiffuseMaterial{RGB(0.12f, 0.45f, 0.15f)}, "green wall");
+  uint32_t black = detail::add_cornell_material(scene, DiffuseMaterial{RGB(0.f)}, "lamp");
 
   TriangleMesh whites;  // floor, ceiling, back wall, facing into the box
   append_quad(whites, {-1, -1, -1}, {0, 0, 2}, {2, 0, 0});   // floor, normal +y
@@ -184,13 +214,16 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
     scene.add_instance(box, white, translate({-0.35f, 0, -0.3f}) * rotate(radians(18), {0, 1, 0}));
   }
   // A rough gold sphere (measured eta and k) on the floor at the front right.
-  uint32_t sphere_m = opt.gold_sphere ? scene.add_material(ConductorMaterial::metal(
-                                            "Au", MicrofacetRoughness(opt.gold_alpha), "rough gold"))
-                                      : white;
+  uint32_t sphere_m =
+      opt.gold_sphere ? detail::add_cornell_material(
+                            scene, ConductorMaterial::metal("Au", MicrofacetRoughness(opt.gold_alpha), "rough gold"),
+                            "gold sphere")
+                      : white;
   scene.add_sphere(Sphere{{0.4f, -0.6f, 0.35f}, 0.4f}, sphere_m);
   // A small rough (frosted) glass sphere on the floor at the front left.
   if (opt.gold_sphere) {
-    uint32_t frosted = scene.add_material(DielectricMaterial{IOR(1.5f), "frosted glass", MicrofacetRoughness(0.15f)});
+    uint32_t frosted = detail::add_cornell_material(
+        scene, DielectricMaterial{IOR(1.5f), "frosted glass", MicrofacetRoughness(0.15f)}, "frosted glass sphere");
     scene.add_sphere(Sphere{{-0.55f, -0.8f, 0.6f}, 0.2f}, frosted);
   }
 
@@ -204,12 +237,13 @@ void build_cornell_box(Scene& scene, const CornellBoxOptions& opt = {}) {
   TriangleMesh slit;
   append_quad(slit, {-0.999f, y0, zs - half_w}, {0, y1 - y0, 0}, {0, 0, 2 * half_w});  // normal +x
   scene.add_mesh_instance(std::move(slit), black, opt.slit);
-  uint32_t lens_glass = scene.add_material(DielectricMaterial{IOR(1.5f), "lens glass"});
+  uint32_t lens_glass = detail::add_cornell_material(scene, DielectricMaterial{IOR(1.5f), "lens glass"}, "lens");
   scene.add_mesh_instance(make_cylindrical_lens({opt.lens_x, zs}, {1, 0}, 0.24f, opt.lens_radius, y0, y1), lens_glass);
   // The prism: apex angle 60 degrees, side 0.36, its cross-section turned so
   // that the beam meets the first face at a steep angle and leaves towards the
   // back wall.
-  uint32_t glass = scene.add_material(DielectricMaterial{SellmeierIOR::glass("N-SF11"), "SF11 glass prism"});
+  uint32_t glass =
+      detail::add_cornell_material(scene, DielectricMaterial{SellmeierIOR::glass("N-SF11"), "SF11 glass prism"}, "prism");
   const Float side = 0.36f, r = side / std::sqrt(3.f), turn = radians(opt.prism_turn), cx = -0.25f, cz = 0.5f;
   Point2f v[3];
   for (int i = 0; i < 3; ++i) {

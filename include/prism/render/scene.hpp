@@ -280,6 +280,12 @@ class Scene {
   bool has_specular() const { return m_has_specular; }
   // True if the scene has area lights (emitting triangles or spheres); valid after build().
   bool has_area_lights() const { return m_area_light_count > 0; }
+  // True if an emitting instance has an emissive texture; valid after build().
+  bool has_emission_textures() const {
+    for (const auto& info : m_info)
+      if (info.emission && info.emission->texture) return true;
+    return false;
+  }
 
   // True if a material cannot be rendered exactly in RGB (dispersion, measured
   // spectra): the colour model a front end should choose without being told.
