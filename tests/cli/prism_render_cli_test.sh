@@ -137,6 +137,11 @@ check_inst "spectral, bxdfs {diffuse, dielectric, conductor, thin_dielectric, me
 check_inst "rgb, bxdfs {metal_rough} (metal_rough)" "$tri" --out "$tmp/inst_tri.pfm"
 check_inst "rgb, bxdfs {diffuse, dielectric, conductor, thin_dielectric, metal_rough} (full)" "$tri" \
   --instantiation full --out "$tmp/inst_tri_full.pfm"
+# A dispersive glTF volume (KHR_materials_dispersion, a glass box built by
+# tests/gltf/volume_test.cpp) renders spectrally unless --rgb is asked for.
+disp="$(dirname "${BASH_SOURCE[0]}")/dispersive_box.gltf"
+check_inst "spectral, bxdfs {metal_rough} (metal_rough)" "$disp" --out "$tmp/inst_disp.pfm"
+check_inst "rgb, bxdfs {metal_rough} (metal_rough)" "$disp" --rgb --out "$tmp/inst_disp_rgb.pfm"
 cmp -s "$tmp/inst_min.pfm" "$tmp/inst_full.pfm" || { echo "FAIL: minimal and full differ on the diffuse box"; fails=$((fails+1)); }
 cmp -s "$tmp/inst_tri.pfm" "$tmp/inst_tri_full.pfm" || { echo "FAIL: metal_rough and full differ on a glTF file"; fails=$((fails+1)); }
 
