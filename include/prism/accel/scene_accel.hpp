@@ -33,6 +33,15 @@
 
 namespace prism {
 
+namespace detail {
+// The bounds of triangle i of `mesh`, for BVH::build and BVH::refit.
+inline auto triangle_bounds(const TriangleMesh& mesh) {
+  return [p = mesh.positions.data(), idx = mesh.indices.data()](size_t i) {
+    return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
+  };
+}
+}  // namespace detail
+
 // A mesh's BVH with its triangles' vertices copied into leaf order, four
 // triangles to a packet (accel/triangle_packet.hpp): each leaf starts a new
 // packet, so a leaf's triangles are contiguous, need no index lookups and are
@@ -42,16 +51,9 @@ class MeshAccel {
   MeshAccel() = default;
   MeshAccel(const TriangleMesh& mesh, const BVHBuildOptions& options) {
     size_t n = mesh.triangle_count();
-    const Point3f* p = mesh.positions.data();
-    const uint32_t* idx = mesh.indices.data();
     BVHBuildOptions opt = options;
     opt.leaf_block = triangle_packet_width;
-    m_bvh = BVH::build(
-        n,
-        [p, idx](size_t i) {
-          return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
-        },
-        opt);
+    m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
     m_threads = detail::build_threads(opt.threads);
     m_triangles = n;
     size_t packets = m_bvh.prims().size() / triangle_packet_width;
@@ -67,11 +69,7 @@ class MeshAccel {
     if (mesh.triangle_count() != m_triangles)
       throw Error("MeshAccel::refit: the mesh has " + std::to_string(mesh.triangle_count()) +
                   " triangles, the BVH was built over " + std::to_string(m_triangles));
-    const Point3f* p = mesh.positions.data();
-    const uint32_t* idx = mesh.indices.data();
-    m_bvh.refit([p, idx](size_t i) {
-      return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
-    });
+    m_bvh.refit(detail::triangle_bounds(mesh));
     pack(mesh);
   }
 

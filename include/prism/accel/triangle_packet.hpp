@@ -187,13 +187,8 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
 
 // Closest hit before t_max among the lanes in `lanes` (bit l = lane l), for a
 // ray whose largest direction component is KZ (pc's permutation).
-#ifdef PRISM_PACKET_NOINLINE
-#define PRISM_PACKET_INLINE [[gnu::noinline]]
-#else
-#define PRISM_PACKET_INLINE
-#endif
 template <int KZ>
-PRISM_PACKET_INLINE inline std::optional<PacketHit> intersect_packet(const TrianglePacket& p, const Point3f& o,
+inline std::optional<PacketHit> intersect_packet(const TrianglePacket& p, const Point3f& o,
                                                  const RayTrianglePrecomp& pc, Float t_max, int lanes) {
   std::optional<PacketHit> best;
 #if defined(PRISM_TRIANGLE_SIMD)
@@ -236,7 +231,7 @@ PRISM_PACKET_INLINE inline std::optional<PacketHit> intersect_packet(const Trian
 
 // Whether any lane in `lanes` is hit before t_max.
 template <int KZ>
-PRISM_PACKET_INLINE inline bool occluded_packet(const TrianglePacket& p, const Point3f& o, const RayTrianglePrecomp& pc, Float t_max,
+inline bool occluded_packet(const TrianglePacket& p, const Point3f& o, const RayTrianglePrecomp& pc, Float t_max,
                             int lanes) {
 #if defined(PRISM_TRIANGLE_SIMD)
   int undecided = 0;
