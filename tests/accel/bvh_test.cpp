@@ -442,27 +442,57 @@ TEST_CASE("BVH builds over centroids closer than any float bin width", "[accel][
 }
 
 TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
-  // Enough primitives for the builder to go parallel (32K per subtree).
+  // Enough primitives for every parallel part of the build: subtrees on their
+  // own threads (16K per subtree), chunked binning of the top levels (256K),
+  // the chunked leaf padding and the parallel collapse into wide nodes.
   PCG32 rng(6, 0xb0b);
-  std::vector<Bounds3f> b(150000);
+  std::vector<Bounds3f> b(300000);
   for (auto& x : b) {
     Point3f c{uniform(rng, -100, 100), uniform(rng, -100, 100), uniform(rng, -100, 100)};
     Vector3f e{std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2))};
     x = Bounds3f(c - e, c + e);
   }
-  auto build = [&](int threads) {
-    BVHBuildOptions opt;
-    opt.threads = threads;
-    return BVH::build(b, opt);
-  };
-  BVH one = build(1), two = build(2), two_again = build(2), four = build(4);
-  auto identical = [](const BVH& x, const BVH& y) {
-    return x.nodes().size() == y.nodes().size() && x.prims() == y.prims() &&
-           std::memcmp(x.nodes().data(), y.nodes().data(), x.nodes().size() * sizeof(BVHNode)) == 0;
-  };
-  CHECK(identical(one, two));
-  CHECK(identical(two, two_again));
-  CHECK(identical(one, four));
+  for (int block : {1, 4}) {
+    auto build = [&](int threads) {
+      BVHBuildOptions opt;
+      opt.threads = threads;
+      opt.leaf_block = block;
+      return BVH::build(b, opt);
+    };
+    BVH one = build(1), two = build(2), two_again = build(2), four = build(4);
+    auto identical = [](const BVH& x, const BVH& y) {
+      return x.nodes().size() == y.nodes().size() && x.prims() == y.prims() &&
+             std::memcmp(x.nodes().data(), y.nodes().data(), x.nodes().size() * sizeof(BVHNode)) == 0 &&
+             x.wide_nodes().size() == y.wide_nodes().size() &&
+             std::memcmp(x.wide_nodes().data(), y.wide_nodes().data(), x.wide_nodes().size_bytes()) == 0;
+    };
+    INFO("leaf_block " << block << ", " << one.nodes().size() << " nodes, " << one.wide_nodes().size() << " wide");
+    CHECK(one.wide_nodes().size() > 1000);
+    CHECK(identical(one, two));
+    CHECK(identical(two, two_again));
+    CHECK(identical(one, four));
+    // The wide layout indexes every wide node once, each after its parent.
+    std::vector<int> parents(one.wide_nodes().size(), 0);
+    size_t leaf_prims = 0, bad_links = 0;
+    for (size_t w = 0; w < one.wide_nodes().size(); ++w) {
+      const auto& nd = one.wide_nodes()[w];
+      for (int l = 0; l < 8; ++l) {
+        if (nd.count[l] == nd.interior) {
+          if (nd.child[l] <= w || nd.child[l] >= one.wide_nodes().size()) {
+            ++bad_links;
+            continue;
+          }
+          ++parents[nd.child[l]];
+        } else {
+          leaf_prims += nd.count[l];
+        }
+      }
+    }
+    CHECK(bad_links == 0);
+    CHECK(parents[0] == 0);
+    CHECK(std::count(parents.begin() + 1, parents.end(), 1) == long(parents.size()) - 1);
+    CHECK(leaf_prims == b.size());
+  }
 }
 
 TEST_CASE("SceneAccel occluded agrees with intersect through instances", "[accel][scene]") {

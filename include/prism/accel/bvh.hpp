@@ -141,6 +141,25 @@ void reserve_huge(std::vector<T>& v, size_t n) {
 inline int build_threads(int requested) {
   return requested > 0 ? requested : int(std::max(1u, std::thread::hardware_concurrency()));
 }
+// Runs fn(i) for every i in [0, n) on up to `threads` threads (the calling
+// thread among them), handing out items one at a time so that uneven items
+// keep every thread busy.
+template <class F>
+void parallel_items(size_t n, int threads, F&& fn) {
+  size_t t = std::min(n, size_t(std::max(1, threads)));
+  if (t <= 1) {
+    for (size_t i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t i = next.fetch_add(1); i < n; i = next.fetch_add(1)) fn(i);
+  };
+  std::vector<std::thread> pool;
+  for (size_t c = 1; c < t; ++c) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+}
 // How many contiguous chunks parallel_chunks should split n items into.
 inline int parallel_chunk_count(size_t n, int threads) { return n < 64 * 1024 ? 1 : std::max(1, threads); }
 // Runs fn(begin, end, chunk) on `chunks` contiguous ranges of [0, n), one
@@ -314,7 +333,7 @@ class BVH {
     detail::reserve_huge(bvh.m_nodes, 2 * n - 1);
     b.build_range(0, uint32_t(n), 0, bb, cb, bvh.m_nodes);
     if (opt.leaf_block > 1) {
-      bvh.pad_leaves(b.refs.get(), uint32_t(opt.leaf_block));
+      bvh.pad_leaves(b.refs.get(), uint32_t(opt.leaf_block), threads);
     } else {
       detail::reserve_huge(bvh.m_prims, n);
       bvh.m_prims.resize(n);
@@ -322,8 +341,7 @@ class BVH {
         for (size_t i = begin; i < end; ++i) bvh.m_prims[i] = b.refs[i].index;
       });
     }
-    detail::reserve_huge(bvh.m_wide, bvh.m_nodes.size() / 4 + 1);
-    bvh.collapse(0);
+    bvh.collapse_all(threads);
     return bvh;
   }
 
@@ -350,8 +368,7 @@ class BVH {
         nd.bmax[a] = b.max[a];
       }
     }
-    m_wide.clear();
-    if (!m_nodes.empty()) collapse(0);
+    collapse_all(detail::build_threads(0));
   }
 
   bool empty() const { return m_nodes.empty(); }
@@ -365,6 +382,8 @@ class BVH {
            m_prims.size() * sizeof(uint32_t);
   }
   size_t wide_node_count() const { return m_wide.size(); }
+  // The traversal layout (detail::BVHWideNode), for inspection and tests.
+  std::span<const detail::BVHWideNode> wide_nodes() const { return m_wide; }
 
   // Closest hit. isect(k, t_max) tests leaf-order primitive k and, on a hit
   // closer than t_max, lowers t_max and returns true. Children are visited
@@ -564,6 +583,7 @@ class BVH {
     std::atomic<int> active{1};  // threads doing build work
     static constexpr int bin_count = 16;
     static constexpr uint32_t parallel_threshold = 16 * 1024;
+    static constexpr uint32_t parallel_binning_threshold = 256 * 1024;
 
     // Past this depth the builder halves ranges instead of using the SAH, so
     // traversal stacks (max_sah_depth + 32 entries) never overflow.
@@ -651,28 +671,57 @@ class BVH {
           __m128i lt = _mm_cmplt_epi32(bi, last_bin);
           return _mm_or_si128(_mm_and_si128(lt, bi), _mm_andnot_si128(lt, last_bin));
         };
-        for (uint32_t i = begin; i < end; ++i) {
-          __m128 l, h, c;
-          alignas(16) int bi[4];
-          _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
-          for (int a = 0; a < 3; ++a) {
-            if (!active_axis[a]) continue;
-            ++bin_n[a][bi[a]];
-            bin_b[a][bi[a]].grow(l, h);
-          }
-        }
-#else
-        for (uint32_t i = begin; i < end; ++i) {
-          Bounds3f b = r[i].bounds();
-          Point3f c = b.centroid();
-          for (int a = 0; a < 3; ++a) {
-            if (!active_axis[a]) continue;
-            int bi = bin_of(c[a], lo[a], k[a]);
-            ++bin_n[a][bi];
-            bin_b[a][bi].grow(b);
-          }
-        }
 #endif
+        // Adds the primitives of [b0, e0) to the bins bb, bn.
+        auto bin_range = [&](uint32_t b0, uint32_t e0, BoxAcc (*bb)[bin_count], uint32_t (*bn)[bin_count]) {
+#ifdef PRISM_BVH_SSE
+          for (uint32_t i = b0; i < e0; ++i) {
+            __m128 l, h, c;
+            alignas(16) int bi[4];
+            _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
+            for (int a = 0; a < 3; ++a) {
+              if (!active_axis[a]) continue;
+              ++bn[a][bi[a]];
+              bb[a][bi[a]].grow(l, h);
+            }
+          }
+#else
+          for (uint32_t i = b0; i < e0; ++i) {
+            Bounds3f b = r[i].bounds();
+            Point3f c = b.centroid();
+            for (int a = 0; a < 3; ++a) {
+              if (!active_axis[a]) continue;
+              int bi = bin_of(c[a], lo[a], k[a]);
+              ++bn[a][bi];
+              bb[a][bi].grow(b);
+            }
+          }
+#endif
+        };
+        if (n >= parallel_binning_threshold) {
+          // Large ranges (the top levels) are binned in a fixed number of
+          // chunks on the threads that are idle, and the chunks' bins merged in
+          // order: the bins do not depend on the thread count.
+          constexpr int chunks = 8;
+          struct Bins {
+            BoxAcc b[3][bin_count];
+            uint32_t n[3][bin_count] = {};
+          };
+          std::vector<Bins> part(chunks);
+          int idle = std::max(1, threads - active.load() + 1);
+          detail::parallel_items(chunks, idle, [&](size_t c) {
+            bin_range(begin + uint32_t(uint64_t(n) * c / chunks), begin + uint32_t(uint64_t(n) * (c + 1) / chunks),
+                      part[c].b, part[c].n);
+          });
+          for (int c = 0; c < chunks; ++c)
+            for (int a = 0; a < 3; ++a)
+              for (int i = 0; i < bin_count; ++i) {
+                bin_n[a][i] += part[size_t(c)].n[a][i];
+                bin_b[a][i].grow(part[size_t(c)].b[a][i]);
+              }
+        } else {
+          bin_range(begin, end, bin_b, bin_n);
+        }
         // A boundary after an empty bin splits like the one before it, so only
         // boundaries after occupied bins are costed (the first of equal costs
         // wins, as with a full sweep).
@@ -810,21 +859,37 @@ class BVH {
   };
 
   // Lays out prims() with every leaf starting at a multiple of `block` and
-  // padded to one by repeating its last primitive; rewrites the leaves' offsets.
-  void pad_leaves(const PrimRef* refs, uint32_t block) {
-    size_t total = 0;
-    for (const BVHNode& nd : m_nodes)
-      if (nd.is_leaf()) total += (nd.count + block - 1) / block * block;
-    detail::reserve_huge(m_prims, total);
-    m_prims.resize(total);
-    uint32_t at = 0;
-    for (BVHNode& nd : m_nodes) {
-      if (!nd.is_leaf()) continue;
-      uint32_t padded = (nd.count + block - 1) / block * block;
-      for (uint32_t i = 0; i < padded; ++i) m_prims[at + i] = refs[nd.offset + std::min(i, nd.count - 1)].index;
-      nd.offset = at;
-      at += padded;
-    }
+  // padded to one by repeating its last primitive; rewrites the leaves'
+  // offsets. Done in fixed chunks of the node array: each chunk's leaves are
+  // sized, the sizes summed in order, then each chunk written at its offset.
+  void pad_leaves(const PrimRef* refs, uint32_t block, int threads) {
+    size_t nn = m_nodes.size();
+    size_t chunks = nn < 64 * 1024 ? 1 : 16;
+    auto range = [&](size_t c) { return std::pair(nn * c / chunks, nn * (c + 1) / chunks); };
+    auto padded = [block](uint32_t count) { return (count + block - 1) / block * block; };
+    std::vector<size_t> start(chunks + 1, 0);
+    detail::parallel_items(chunks, threads, [&](size_t c) {
+      auto [b, e] = range(c);
+      size_t total = 0;
+      for (size_t i = b; i < e; ++i)
+        if (m_nodes[i].is_leaf()) total += padded(m_nodes[i].count);
+      start[c + 1] = total;
+    });
+    for (size_t c = 0; c < chunks; ++c) start[c + 1] += start[c];
+    detail::reserve_huge(m_prims, start[chunks]);
+    m_prims.resize(start[chunks]);
+    detail::parallel_items(chunks, threads, [&](size_t c) {
+      auto [b, e] = range(c);
+      uint32_t at = uint32_t(start[c]);
+      for (size_t i = b; i < e; ++i) {
+        BVHNode& nd = m_nodes[i];
+        if (!nd.is_leaf()) continue;
+        uint32_t n = padded(nd.count);
+        for (uint32_t k = 0; k < n; ++k) m_prims[at + k] = refs[nd.offset + std::min(k, nd.count - 1)].index;
+        nd.offset = at;
+        at += n;
+      }
+    });
   }
 
   // The children of the wide node for binary node `bin`: starting from its two
@@ -861,11 +926,54 @@ class BVH {
     return k;
   }
 
-  // Builds the wide node for binary node `bin` and, recursively, its subtree.
-  uint32_t collapse(uint32_t bin) {
+  // Derives the wide layout from the binary tree. The wide node of binary
+  // node `bin` is followed by the wide subtrees of its inner children, in lane
+  // order (depth-first pre-order). The subtrees below the top `top_levels`
+  // wide levels are sized, and later written into their own index ranges, in
+  // parallel; the top is sized and written by this thread. The layout does not
+  // depend on the thread count.
+  void collapse_all(int threads) {
+    m_wide.clear();
+    if (m_nodes.empty()) return;
+    constexpr int top_levels = 3;
+    std::vector<uint32_t> size(m_nodes.size());  // wide nodes in the subtree of a wide root, by binary index
+    std::vector<uint32_t> frontier;
+    wide_size(0, 0, top_levels, size, &frontier);  // only gathers the frontier
+    detail::parallel_items(frontier.size(), threads, [&](size_t i) { wide_size(frontier[i], 0, -1, size, nullptr); });
+    uint32_t total = wide_size(0, 0, top_levels, size, nullptr);
+    detail::reserve_huge(m_wide, total);
+    m_wide.resize(total);
+    std::vector<std::pair<uint32_t, uint32_t>> jobs;  // (binary node, wide index) at the frontier
+    write_wide(0, 0, 0, top_levels, size, &jobs);
+    detail::parallel_items(jobs.size(), threads,
+                           [&](size_t i) { write_wide(jobs[i].first, jobs[i].second, 0, -1, size, nullptr); });
+  }
+  // The number of wide nodes under wide root `bin`, stored in size[bin]. At
+  // wide depth `stop` it stops: a frontier root is appended to `frontier`
+  // when given, and its stored size is used.
+  uint32_t wide_size(uint32_t bin, int depth, int stop, std::vector<uint32_t>& size,
+                     std::vector<uint32_t>* frontier) const {
+    if (depth == stop) {
+      if (frontier) frontier->push_back(bin);
+      return size[bin];
+    }
+    uint32_t kids[detail::wide_width];
+    int k = wide_children(bin, kids);
+    uint32_t total = 1;
+    for (int l = 0; l < k; ++l)
+      if (!m_nodes[kids[l]].is_leaf()) total += wide_size(kids[l], depth + 1, stop, size, frontier);
+    size[bin] = total;
+    return total;
+  }
+  // Writes the wide node of `bin` at index w and its subtree after it, down to
+  // wide depth `stop`, where the frontier's (root, index) pairs go to `jobs`.
+  void write_wide(uint32_t bin, uint32_t w, int depth, int stop, const std::vector<uint32_t>& size,
+                  std::vector<std::pair<uint32_t, uint32_t>>* jobs) {
+    if (depth == stop) {
+      jobs->emplace_back(bin, w);
+      return;
+    }
     constexpr int W = detail::wide_width;
-    uint32_t w = uint32_t(m_wide.size());
-    m_wide.emplace_back();
     uint32_t kids[W];
     int k = wide_children(bin, kids);
     detail::BVHWideNode node;
@@ -877,18 +985,20 @@ class BVH {
       node.child[l] = 0;
       node.count[l] = 0;
     }
+    uint32_t next = w + 1;
     for (int l = 0; l < k; ++l) {
       const BVHNode& c = m_nodes[kids[l]];
       if (c.is_leaf()) {
         node.child[l] = c.offset;
         node.count[l] = c.count;
       } else {
-        node.child[l] = collapse(kids[l]);  // may reallocate m_wide
+        node.child[l] = next;
         node.count[l] = detail::BVHWideNode::interior;
+        write_wide(kids[l], next, depth + 1, stop, size, jobs);
+        next += size[kids[l]];
       }
     }
     m_wide[w] = node;
-    return w;
   }
 
   std::vector<BVHNode> m_nodes;
