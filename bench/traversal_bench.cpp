@@ -348,8 +348,28 @@ struct HitRecord {
 // camera rays, the bounce rays at depths 1, 2 and 3 (closest hit) and the
 // shadow rays of next-event estimation (any hit, with the t_max the
 // integrator gave). Deeper bounces are only counted.
+//
+// Each kind keeps every s-th of its rays in the order the renderer traced
+// them, s the smallest power of two that keeps at most `cap` (a set halves,
+// dropping every other ray, whenever it would exceed the cap): a uniform
+// subsample of the whole image, so that the shallow kinds stay bounded while
+// the render runs long enough to give the deep ones enough rays.
+struct RayReservoir {
+  std::vector<BenchRay> rays;
+  size_t seen = 0, stride = 1, cap = 1000000;
+  void add(const BenchRay& r) {
+    if (seen++ % stride != 0) return;
+    rays.push_back(r);
+    if (rays.size() > cap) {
+      for (size_t i = 0; 2 * i < rays.size(); ++i) rays[i] = rays[2 * i];
+      rays.resize((rays.size() + 1) / 2);
+      stride *= 2;
+    }
+  }
+};
+
 struct RecordedRays {
-  std::vector<BenchRay> camera, bounce[3], shadow;
+  RayReservoir camera, bounce[3], shadow;
   size_t deeper = 0;                // bounce rays at depth 4 and beyond (not kept)
   size_t shadow_at[5] = {};         // shadow rays by path vertex: 0, 1, 2, 3, 4+
   size_t shadow_infinite = 0;       // shadow rays with t_max = infinity (to the environment)
@@ -373,9 +393,9 @@ class RecordingScene {
   std::optional<SurfaceInteraction> intersect(const Ray& ray, Float t_max = infinity) const {
     BenchRay r{ray.o, ray.d, t_max};
     if (m_depth == 0)
-      m_out->camera.push_back(r);
+      m_out->camera.add(r);
     else if (m_depth <= 3)
-      m_out->bounce[m_depth - 1].push_back(r);
+      m_out->bounce[m_depth - 1].add(r);
     else
       ++m_out->deeper;
     ++m_depth;
@@ -383,7 +403,7 @@ class RecordingScene {
   }
   bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
                 uint32_t skip_primitive = UINT32_MAX) const {
-    m_out->shadow.push_back({ray.o, ray.d, t_max});
+    m_out->shadow.add({ray.o, ray.d, t_max});
     // NEE happens at the vertex found by the last intersect() of the path.
     ++m_out->shadow_at[std::min(4, std::max(0, m_depth - 1))];
     m_out->shadow_infinite += t_max == infinity;
@@ -430,7 +450,9 @@ struct RecordingIntegrator {
 // environment, or a uniform white sky when the map is absent) at res x res
 // and spp samples on one thread, recording every ray. Returns false if the
 // model cannot be loaded.
-bool record_rays(const std::string& model, const std::string& env, int res, int spp, RecordedRays* out) {
+bool record_rays(const std::string& model, const std::string& env, int res, int spp, size_t cap,
+                 RecordedRays* out) {
+  for (RayReservoir* r : {&out->camera, &out->bounce[0], &out->bounce[1], &out->bounce[2], &out->shadow}) r->cap = cap;
   try {
     auto g = load_gltf<RGB>(model);
     if (fs::exists(env)) {
@@ -455,11 +477,16 @@ bool record_rays(const std::string& model, const std::string& env, int res, int 
     std::fprintf(stderr, "recorded rays: %s\n", e.what());
     return false;
   }
-  std::printf("  recorded rays: %zu camera, %zu / %zu / %zu bounce at depth 1 / 2 / 3 (%zu deeper, not kept), "
-              "%zu shadow (at vertex 0 / 1 / 2 / 3 / 4+: %zu / %zu / %zu / %zu / %zu; %zu to the environment)\n",
-              out->camera.size(), out->bounce[0].size(), out->bounce[1].size(), out->bounce[2].size(), out->deeper,
-              out->shadow.size(), out->shadow_at[0], out->shadow_at[1], out->shadow_at[2], out->shadow_at[3],
+  std::printf("  traced by the renderer: %zu camera, %zu / %zu / %zu bounce at depth 1 / 2 / 3 (%zu deeper, not "
+              "kept), %zu shadow (at vertex 0 / 1 / 2 / 3 / 4+: %zu / %zu / %zu / %zu / %zu; %zu to the environment)\n",
+              out->camera.seen, out->bounce[0].seen, out->bounce[1].seen, out->bounce[2].seen, out->deeper,
+              out->shadow.seen, out->shadow_at[0], out->shadow_at[1], out->shadow_at[2], out->shadow_at[3],
               out->shadow_at[4], out->shadow_infinite);
+  std::printf("  kept (every s-th, at most %zu a kind): camera %zu (s=%zu), bounce1 %zu (s=%zu), bounce2 %zu (s=%zu), "
+              "bounce3 %zu (s=%zu), shadow %zu (s=%zu)\n",
+              cap, out->camera.rays.size(), out->camera.stride, out->bounce[0].rays.size(), out->bounce[0].stride,
+              out->bounce[1].rays.size(), out->bounce[1].stride, out->bounce[2].rays.size(), out->bounce[2].stride,
+              out->shadow.rays.size(), out->shadow.stride);
   if (out->shadow_skip)
     std::printf("  WARNING: %zu shadow rays end on an area light; Embree traces them without the skip\n",
                 out->shadow_skip);
@@ -591,7 +618,8 @@ struct Options {
   std::string gltf = "../shared/scenes/MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb";
   std::string env = "../shared/scenes/envmaps/chinese_garden_1k.hdr";
   int record_res = 512;  // the recording render: record_res^2 pixels at record_spp
-  int record_spp = 2;
+  int record_spp = 64;
+  size_t record_cap = 1000000;  // rays kept per kind
 };
 
 struct InstanceRow {
@@ -864,6 +892,8 @@ int main(int argc, char** argv) {
       opt.record_res = std::max(0, std::atoi(next().c_str()));
     } else if (a == "--record-spp") {
       opt.record_spp = std::max(1, std::atoi(next().c_str()));
+    } else if (a == "--record-cap") {
+      opt.record_cap = size_t(std::max(1, std::atoi(next().c_str())));
     } else if (a == "--threads") {
       opt.threads.clear();
       std::string s = next();
@@ -876,7 +906,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
-                   "       [--record-res N (0: no recorded rays)] [--record-spp N]\n",
+                   "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n",
                    argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
@@ -901,12 +931,12 @@ int main(int argc, char** argv) {
 #ifdef PRISM_HAS_GLTF
       if (opt.record_res > 0) {
         std::printf("\n== recording prism's path tracer on %s\n", opt.gltf.c_str());
-        if (record_rays(opt.gltf, opt.env, opt.record_res, opt.record_spp, &rec))
-          extra = {{"recorded_camera", &rec.camera, true},
-                   {"recorded_bounce1", &rec.bounce[0], true},
-                   {"recorded_bounce2", &rec.bounce[1], true},
-                   {"recorded_bounce3", &rec.bounce[2], true},
-                   {"recorded_shadow", &rec.shadow, false}};
+        if (record_rays(opt.gltf, opt.env, opt.record_res, opt.record_spp, opt.record_cap, &rec))
+          extra = {{"recorded_camera", &rec.camera.rays, true},
+                   {"recorded_bounce1", &rec.bounce[0].rays, true},
+                   {"recorded_bounce2", &rec.bounce[1].rays, true},
+                   {"recorded_bounce3", &rec.bounce[2].rays, true},
+                   {"recorded_shadow", &rec.shadow.rays, false}};
       }
 #else
       std::printf("\n(no recorded rays: built without prism::gltf)\n");
