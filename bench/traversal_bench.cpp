@@ -7,11 +7,25 @@
 // Rays: primary (pinhole camera framing the object), incoherent (cosine
 // hemisphere about the geometric normal at the primary hits) and shadow (from
 // the primary hits to random points on a sphere around the scene, finite t_max).
+// Fourth ray set, glTF case only: rays recorded from prism's own path tracer
+// while it renders the model (prism's glTF loader, RGB, PathIntegrator with
+// its defaults, the framing camera, lit by the shared HDR environment;
+// 512x512 at 64 spp on one thread): the camera rays, the bounce rays at
+// depths 1, 2 and 3 (closest hit) and the next-event shadow rays (any hit,
+// with the integrator's t_max: infinite here, the only light being the
+// environment). A wrapper scene (RecordingScene) writes down every ray that
+// the unchanged renderer hands to intersect()/occluded(); each kind keeps
+// every s-th ray, at most --record-cap. They are traced against the same
+// flattened mesh as the other sets (CSV rows recorded_camera_<case>,
+// recorded_bounce1..3_<case>, recorded_shadow_<case>).
 // Every figure is the median over repetitions, prism and Embree alternating.
 // Results are checked: hit/miss and closest-hit t (relative 1e-4) must agree
 // for more than 99.9% of the rays, otherwise a warning is printed.
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
+//                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
+// --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
+// stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
 // watertight.csv (edge rays: misses of each library) beside it.
 #include <embree3/rtcore.h>
