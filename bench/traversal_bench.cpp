@@ -7,11 +7,25 @@
 // Rays: primary (pinhole camera framing the object), incoherent (cosine
 // hemisphere about the geometric normal at the primary hits) and shadow (from
 // the primary hits to random points on a sphere around the scene, finite t_max).
+// Fourth ray set, glTF case only: rays recorded from prism's own path tracer
+// while it renders the model (prism's glTF loader, RGB, PathIntegrator with
+// its defaults, the framing camera, lit by the shared HDR environment;
+// 512x512 at 64 spp on one thread): the camera rays, the bounce rays at
+// depths 1, 2 and 3 (closest hit) and the next-event shadow rays (any hit,
+// with the integrator's t_max: infinite here, the only light being the
+// environment). A wrapper scene (RecordingScene) writes down every ray that
+// the unchanged renderer hands to intersect()/occluded(); each kind keeps
+// every s-th ray, at most --record-cap. They are traced against the same
+// flattened mesh as the other sets (CSV rows recorded_camera_<case>,
+// recorded_bounce1..3_<case>, recorded_shadow_<case>).
 // Every figure is the median over repetitions, prism and Embree alternating.
 // Results are checked: hit/miss and closest-hit t (relative 1e-4) must agree
 // for more than 99.9% of the rays, otherwise a warning is printed.
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
+//                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
+// --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
+// stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
 // watertight.csv (edge rays: misses of each library) beside it.
 #include <embree3/rtcore.h>
@@ -35,6 +49,10 @@
 #include "prism/math/frame.hpp"
 #include "prism/sampling/pcg32.hpp"
 #include "prism/sampling/warps.hpp"
+#ifdef PRISM_HAS_GLTF
+#include "prism/io/gltf.hpp"
+#include "prism/io/image_io.hpp"
+#endif
 
 using namespace prism;
 namespace fs = std::filesystem;
@@ -338,6 +356,159 @@ struct HitRecord {
   uint32_t prim = UINT32_MAX;
 };
 
+// ------------------------------------------------ rays recorded from prism
+
+// The rays prism's own path tracer traces while it renders a model: the
+// camera rays, the bounce rays at depths 1, 2 and 3 (closest hit) and the
+// shadow rays of next-event estimation (any hit, with the t_max the
+// integrator gave). Deeper bounces are only counted.
+//
+// Each kind keeps every s-th of its rays in the order the renderer traced
+// them, s the smallest power of two that keeps at most `cap` (a set halves,
+// dropping every other ray, whenever it would exceed the cap): a uniform
+// subsample of the whole image, so that the shallow kinds stay bounded while
+// the render runs long enough to give the deep ones enough rays.
+struct RayReservoir {
+  std::vector<BenchRay> rays;
+  size_t seen = 0, stride = 1, cap = 1000000;
+  void add(const BenchRay& r) {
+    if (seen++ % stride != 0) return;
+    rays.push_back(r);
+    if (rays.size() > cap) {
+      for (size_t i = 0; 2 * i < rays.size(); ++i) rays[i] = rays[2 * i];
+      rays.resize((rays.size() + 1) / 2);
+      stride *= 2;
+    }
+  }
+};
+
+struct RecordedRays {
+  RayReservoir camera, bounce[3], shadow;
+  size_t deeper = 0;                // bounce rays at depth 4 and beyond (not kept)
+  size_t shadow_at[5] = {};         // shadow rays by path vertex: 0, 1, 2, 3, 4+
+  size_t shadow_infinite = 0;       // shadow rays with t_max = infinity (to the environment)
+  size_t shadow_skip = 0;           // shadow rays ending on an area light (skip primitive)
+};
+
+#ifdef PRISM_HAS_GLTF
+// A scene that forwards everything to prism's Scene and writes down every
+// ray handed to intersect() and occluded(). PathIntegrator::Li takes its
+// scene as a template parameter, so the renderer runs unchanged on it; the
+// library has no hook for this. Single-threaded (the recording render runs
+// on one thread, so the sets come out in the renderer's deterministic order).
+template <class SceneT>
+class RecordingScene {
+ public:
+  using spectrum_type = typename SceneT::spectrum_type;
+  RecordingScene(const SceneT& s, RecordedRays& out) : m_scene(s), m_out(&out) {}
+
+  void begin_path() const { m_depth = 0; }
+
+  std::optional<SurfaceInteraction> intersect(const Ray& ray, Float t_max = infinity) const {
+    BenchRay r{ray.o, ray.d, t_max};
+    if (m_depth == 0)
+      m_out->camera.add(r);
+    else if (m_depth <= 3)
+      m_out->bounce[m_depth - 1].add(r);
+    else
+      ++m_out->deeper;
+    ++m_depth;
+    return m_scene.intersect(ray, t_max);
+  }
+  bool occluded(const Ray& ray, Float t_max, uint32_t skip_instance = UINT32_MAX,
+                uint32_t skip_primitive = UINT32_MAX) const {
+    m_out->shadow.add({ray.o, ray.d, t_max});
+    // NEE happens at the vertex found by the last intersect() of the path.
+    ++m_out->shadow_at[std::min(4, std::max(0, m_depth - 1))];
+    m_out->shadow_infinite += t_max == infinity;
+    m_out->shadow_skip += skip_instance != UINT32_MAX;
+    return m_scene.occluded(ray, t_max, skip_instance, skip_primitive);
+  }
+
+  template <class W>
+  auto bsdf(const SurfaceInteraction& si, W&& lambda) const {
+    return m_scene.bsdf(si, std::forward<W>(lambda));
+  }
+  template <class W>
+  auto interior_absorption(const SurfaceInteraction& si, const W& lambda) const {
+    return m_scene.interior_absorption(si, lambda);
+  }
+  bool has_specular() const { return m_scene.has_specular(); }
+  bool has_area_lights() const { return m_scene.has_area_lights(); }
+  const auto& lights() const { return m_scene.lights(); }
+  const auto& infinite_lights() const { return m_scene.infinite_lights(); }
+  auto sample_light(const LightSampleContext& ctx, Float u) const { return m_scene.sample_light(ctx, u); }
+  Float light_pmf(const LightSampleContext& ctx, uint32_t light) const { return m_scene.light_pmf(ctx, light); }
+
+ private:
+  const SceneT& m_scene;
+  RecordedRays* m_out;
+  mutable int m_depth = 0;
+};
+
+// PathIntegrator, telling the recording scene where each camera path starts.
+// It has no caustics_active(), so the renderer runs no light-tracing pass
+// (which this model, without area lights, would not have anyway).
+struct RecordingIntegrator {
+  PathIntegrator path;
+  template <class Scene, class Sampler, class W>
+  typename Scene::spectrum_type Li(const Scene& scene, Ray ray, W& lambda, Sampler& sampler,
+                                   RayCounter& counter) const {
+    scene.begin_path();
+    return path.Li(scene, ray, lambda, sampler, counter);
+  }
+};
+
+// Renders the glTF model as prism's front end would (RGB, PathIntegrator with
+// its defaults, independent sampler, the framing camera, lit by the HDR
+// environment, or a uniform white sky when the map is absent) at res x res
+// and spp samples on one thread, recording every ray. Returns false if the
+// model cannot be loaded.
+bool record_rays(const std::string& model, const std::string& env, int res, int spp, size_t cap,
+                 RecordedRays* out) {
+  for (RayReservoir* r : {&out->camera, &out->bounce[0], &out->bounce[1], &out->bounce[2], &out->shadow}) r->cap = cap;
+  try {
+    auto g = load_gltf<RGB>(model);
+    if (fs::exists(env)) {
+      g.scene.add_light(ImageInfiniteLight<RGB>(read_environment(env), 1));
+    } else {
+      std::printf("  (environment %s not found: a uniform white sky lights the model)\n", env.c_str());
+      g.scene.add_light(UniformInfiniteLight<RGB>(RGB(1, 1, 1)));
+    }
+    g.scene.build();
+    RecordingScene rec(g.scene, *out);
+    Film film(res, res);
+    RenderOptions ro;
+    ro.spp = spp;
+    ro.threads = 1;
+    double t0 = now_seconds();
+    RenderStats st = render(rec, gltf_framing_camera(g.bounds, res, res), RecordingIntegrator{}, film, ro);
+    std::printf("  recorded from a %dx%d, %d spp render of %s (%zu triangles in %zu meshes, %s): %.2f s, %llu rays\n",
+                res, res, spp, fs::path(model).filename().string().c_str(), g.scene_triangles,
+                g.scene.accel().meshes().size(), fs::exists(env) ? fs::path(env).filename().string().c_str() : "white sky",
+                now_seconds() - t0, (unsigned long long)st.rays);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "recorded rays: %s\n", e.what());
+    return false;
+  }
+  std::printf("  traced by the renderer: %zu camera, %zu / %zu / %zu bounce at depth 1 / 2 / 3 (%zu deeper, not "
+              "kept), %zu shadow (at vertex 0 / 1 / 2 / 3 / 4+: %zu / %zu / %zu / %zu / %zu; %zu to the environment)\n",
+              out->camera.seen, out->bounce[0].seen, out->bounce[1].seen, out->bounce[2].seen, out->deeper,
+              out->shadow.seen, out->shadow_at[0], out->shadow_at[1], out->shadow_at[2], out->shadow_at[3],
+              out->shadow_at[4], out->shadow_infinite);
+  std::printf("  kept (every s-th, at most %zu a kind): camera %zu (s=%zu), bounce1 %zu (s=%zu), bounce2 %zu (s=%zu), "
+              "bounce3 %zu (s=%zu), shadow %zu (s=%zu)\n",
+              cap, out->camera.rays.size(), out->camera.stride, out->bounce[0].rays.size(), out->bounce[0].stride,
+              out->bounce[1].rays.size(), out->bounce[1].stride, out->bounce[2].rays.size(), out->bounce[2].stride,
+              out->shadow.rays.size(), out->shadow.stride);
+  if (out->shadow_skip)
+    std::printf("  WARNING: %zu shadow rays end on an area light; Embree traces them without the skip\n",
+                out->shadow_skip);
+  std::fflush(stdout);
+  return true;
+}
+#endif
+
 // ----------------------------------------------------------- the runners
 
 void trace_prism(const SceneAccel& s, const std::vector<BenchRay>& rays, int threads, std::vector<HitRecord>& out) {
@@ -459,6 +630,10 @@ struct Options {
   std::vector<int> threads = {1, 2};
   std::string out = "bench/results/traversal.csv";
   std::string gltf = "../shared/scenes/MetalRoughSpheresNoTextures/glTF-Binary/MetalRoughSpheresNoTextures.glb";
+  std::string env = "../shared/scenes/envmaps/chinese_garden_1k.hdr";
+  int record_res = 512;  // the recording render: record_res^2 pixels at record_spp
+  int record_spp = 64;
+  size_t record_cap = 1000000;  // rays kept per kind
 };
 
 struct InstanceRow {
@@ -511,8 +686,15 @@ void report_agreement(const std::string& name, const Agreement& g, bool closest)
     std::printf("  WARNING: prism and Embree disagree on more than 0.1%% of the %s rays\n", name.c_str());
 }
 
+// A ray set given from outside (the recorded rays), traced like the others.
+struct ExtraRaySet {
+  std::string kind;  // the CSV name is kind + "_" + case
+  const std::vector<BenchRay>* rays;
+  bool closest;      // closest hit; else any hit (occluded)
+};
+
 void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f view_dir, const Options& opt,
-              std::vector<CsvRow>& rows) {
+              std::vector<CsvRow>& rows, const std::vector<ExtraRaySet>& external = {}) {
   size_t ntri = mesh.triangle_count();
   std::printf("\n== %s: %zu triangles, %zu vertices\n", case_name.c_str(), ntri, mesh.positions.size());
   std::fflush(stdout);
@@ -595,9 +777,11 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     const std::vector<BenchRay>* rays;
     bool closest;
   };
-  RaySet sets[] = {{"primary_" + case_name, &primary, true},
-                   {"incoherent_" + case_name, &incoherent, true},
-                   {"shadow_" + case_name, &shadow, false}};
+  std::vector<RaySet> sets = {{"primary_" + case_name, &primary, true},
+                              {"incoherent_" + case_name, &incoherent, true},
+                              {"shadow_" + case_name, &shadow, false}};
+  for (const ExtraRaySet& x : external)
+    if (!x.rays->empty()) sets.push_back({x.kind + "_" + case_name, x.rays, x.closest});
 
   // Correctness: prism against Embree on every set.
   {
@@ -613,7 +797,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
         occluded_prism(prism_scene, *s.rays, 2, a);
         occluded_embree(es, *s.rays, 2, b);
         size_t occ = size_t(std::count(a.begin(), a.end(), uint8_t(1)));
-        std::printf("  (shadow rays occluded for prism: %.1f%%)\n", 100.0 * double(occ) / double(a.size()));
+        std::printf("  (%s occluded for prism: %.1f%%)\n", s.name.c_str(), 100.0 * double(occ) / double(a.size()));
         report_agreement(s.name, compare(a, b), false);
       }
     }
@@ -716,6 +900,14 @@ int main(int argc, char** argv) {
       opt.out = next();
     } else if (a == "--gltf") {
       opt.gltf = next();
+    } else if (a == "--env") {
+      opt.env = next();
+    } else if (a == "--record-res") {
+      opt.record_res = std::max(0, std::atoi(next().c_str()));
+    } else if (a == "--record-spp") {
+      opt.record_spp = std::max(1, std::atoi(next().c_str()));
+    } else if (a == "--record-cap") {
+      opt.record_cap = size_t(std::max(1, std::atoi(next().c_str())));
     } else if (a == "--threads") {
       opt.threads.clear();
       std::string s = next();
@@ -727,7 +919,9 @@ int main(int argc, char** argv) {
       }
     } else {
       std::fprintf(stderr,
-                   "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]\n", argv[0]);
+                   "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
+                   "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n",
+                   argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -745,8 +939,24 @@ int main(int argc, char** argv) {
   if (fs::exists(opt.gltf)) {
     TriangleMesh m;
     if (load_gltf_flat(opt.gltf, &m)) {
+      // Rays recorded from prism's path tracer rendering the same model.
+      RecordedRays rec;
+      std::vector<ExtraRaySet> extra;
+#ifdef PRISM_HAS_GLTF
+      if (opt.record_res > 0) {
+        std::printf("\n== recording prism's path tracer on %s\n", opt.gltf.c_str());
+        if (record_rays(opt.gltf, opt.env, opt.record_res, opt.record_spp, opt.record_cap, &rec))
+          extra = {{"recorded_camera", &rec.camera.rays, true},
+                   {"recorded_bounce1", &rec.bounce[0].rays, true},
+                   {"recorded_bounce2", &rec.bounce[1].rays, true},
+                   {"recorded_bounce3", &rec.bounce[2].rays, true},
+                   {"recorded_shadow", &rec.shadow.rays, false}};
+      }
+#else
+      std::printf("\n(no recorded rays: built without prism::gltf)\n");
+#endif
       // The spheres stand in a plane facing +z; look at them slightly from the side.
-      run_case("metalroughspheres", m, {0.15f, 0.2f, 1.0f}, opt, rows);
+      run_case("metalroughspheres", m, {0.15f, 0.2f, 1.0f}, opt, rows, extra);
     }
   } else {
     std::printf("\n(skipping metalroughspheres: %s not found)\n", opt.gltf.c_str());
