@@ -476,7 +476,7 @@ TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
     size_t leaf_prims = 0, bad_links = 0;
     for (size_t w = 0; w < one.wide_nodes().size(); ++w) {
       const auto& nd = one.wide_nodes()[w];
-      for (int l = 0; l < 8; ++l) {
+      for (int l = 0; l < detail::wide_width; ++l) {
         if (nd.count[l] == nd.interior) {
           if (nd.child[l] <= w || nd.child[l] >= one.wide_nodes().size()) {
             ++bad_links;

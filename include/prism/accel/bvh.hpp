@@ -177,25 +177,37 @@ void parallel_chunks(size_t n, int chunks, F&& fn) {
   for (auto& t : pool) t.join();
 }
 
-// Up to eight children of the binary tree, gathered under one node for
-// traversal. Boxes are stored as structure of arrays: b[16 * axis + 8 * side +
-// lane], side 0 = min, 1 = max. Unused lanes hold an empty box (+inf, -inf)
-// and an empty leaf, so they are never entered by a ray without NaNs and are
-// harmless for one with them.
+// Up to wide_width children of the binary tree, gathered under one node for
+// traversal. Boxes are stored as structure of arrays: b[2W * axis + W * side +
+// lane] (W = wide_width), side 0 = min, 1 = max. Unused lanes hold an empty
+// box (+inf, -inf) and an empty leaf, so they are never entered by a ray
+// without NaNs and are harmless for one with them.
+//
+// The width is 8 by default (256-byte nodes, one AVX pass or two SSE passes
+// per visit); -DPRISM_BVH_WIDTH=4 selects 4-wide nodes (128 bytes, one SSE
+// pass). docs/performance.md has the measurements behind the default.
+#if defined(PRISM_BVH_WIDTH)
+inline constexpr int wide_width = PRISM_BVH_WIDTH;
+#else
 inline constexpr int wide_width = 8;
+#endif
+static_assert(wide_width == 4 || wide_width == 8, "PRISM_BVH_WIDTH must be 4 or 8");
+#if defined(PRISM_BVH_AVX) && !(defined(PRISM_BVH_WIDTH) && PRISM_BVH_WIDTH == 4)
+#define PRISM_BVH_AVX_NODES 1
+#endif
 struct alignas(64) BVHWideNode {
   static constexpr uint32_t interior = UINT32_MAX;
   Float b[6 * wide_width];
   uint32_t child[wide_width];  // interior: index of a wide node; leaf: first primitive (leaf order)
   uint32_t count[wide_width];  // leaf: primitive count; interior: `interior`
 };
-static_assert(sizeof(BVHWideNode) == 256);
+static_assert(sizeof(BVHWideNode) == 32 * wide_width);
 
 // Per-ray data for the lane-parallel box tests: the offsets in BVHWideNode::b
 // of the near and far slab planes per axis, chosen by the direction's sign as
 // in intersect_node.
 struct WideRayPrecomp {
-#if defined(PRISM_BVH_AVX)
+#if defined(PRISM_BVH_AVX_NODES)
   __m256 o[3], inv_d[3];
 #elif defined(PRISM_BVH_SSE)
   __m128 o[3], inv_d[3];
@@ -205,7 +217,7 @@ struct WideRayPrecomp {
   int near_off[3], far_off[3];
   explicit WideRayPrecomp(const RayBoxPrecomp& r) {
     for (int a = 0; a < 3; ++a) {
-#if defined(PRISM_BVH_AVX)
+#if defined(PRISM_BVH_AVX_NODES)
       o[a] = _mm256_set1_ps(r.o[a]);
       inv_d[a] = _mm256_set1_ps(r.inv_d[a]);
 #elif defined(PRISM_BVH_SSE)
@@ -228,7 +240,7 @@ struct WideRayPrecomp {
 // max(a, b) below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane.
 inline int intersect_wide(const BVHWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
   constexpr Float widen = 1 + 2 * gamma(3);
-#if defined(PRISM_BVH_AVX)
+#if defined(PRISM_BVH_AVX_NODES)
   __m256 t0 = _mm256_setzero_ps();
   __m256 t1 = _mm256_set1_ps(t_max);
   for (int a = 0; a < 3; ++a) {
