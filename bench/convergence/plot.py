@@ -40,7 +40,7 @@ titles = {
     "prism": "Dispersive N-SF11 prism: small white lamp, slit, spectrum on a screen (spectral), 64x64",
 }
 colours = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
-           "#bcbd22", "#7f7f7f", "#000000", "#aec7e8"]
+           "#bcbd22", "#7f7f7f", "#000000", "#aec7e8", "#ff9896", "#98df8a"]
 
 
 def style_of(method):
