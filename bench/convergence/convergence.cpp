@@ -1,13 +1,31 @@
-// Convergence harness (issue 8, item 1, first step): error against time for
-// each rendering method on a few scenes, against a cached high-spp reference.
+// Convergence harness (issue 8, item 1): error against time for each
+// rendering method on scenes where methods differ, against a cached high-spp
+// reference.
 //
-// Scenes: the default scene (Cornell box with the SF11 prism, gold and frosted
-// spheres; in RGB and in spectral mode), the many-lights scene (1000 small
-// emitters) and, when the shared scenes are present, MetalRoughSpheresNoTextures
-// under the chinese_garden HDR environment. Methods: integrator (path = NEE +
-// MIS, bsdf = BSDF sampling only) x sampler (independent, Owen-scrambled
-// Sobol) x light selection (power, BVH; many-lights scene only) x colour model
-// (RGB, spectral; default scene only).
+// Scenes (names for --scenes=):
+//   default      the default scene (Cornell box with the SF11 prism, gold and
+//                frosted spheres), in RGB and in spectral mode;
+//   many_lights  1000 small emitters (render/many_lights_scene.hpp);
+//   env_spheres  MetalRoughSpheresNoTextures under the chinese_garden HDR;
+//   tiny_light   a sphere light of radius 1e-3 of the scene with a normal
+//                light's power, over diffuse, glossy and rough surfaces;
+//   caustic      a smooth and a rough glass sphere focusing a small light onto
+//                a diffuse floor;
+//   env_sun      DamagedHelmet under the chinese_garden HDR plus a distant sun
+//                light, over a diffuse ground;
+//   prism        spectral only: a small white lamp, a slit, an N-SF11 prism
+//                and a screen that receives the spectrum.
+// (bench/convergence/scenes.hpp builds tiny_light, caustic and prism; the
+// shared-scene ones are skipped cleanly when the shared directory is absent.)
+//
+// Methods: integrator x sampler x light selection x colour model. Integrators:
+// `path` (NEE + MIS), `nomis` (the same path integrator with NEE but without
+// MIS weights, PathOptions::mis = false) and `bsdf` (BSDF sampling only).
+// Samplers: independent (PCG32), stratified (multi-jittered) and sobol
+// (Owen-scrambled). Per scene: path with all three samplers, nomis and bsdf
+// with independent and sobol (bsdf not on env_sun, whose delta sun BSDF
+// sampling can never hit); on many_lights also path with power and uniform
+// light selection next to the BVH.
 //
 // Each scene and colour model has one reference: the path integrator with the
 // independent sampler at a high sample count, the mean of two halves with
@@ -15,46 +33,63 @@
 // reference's own relMSE, the noise floor every measured relMSE includes),
 // stored as bench/convergence/cache/<scene>_<model>_<W>x<H>_spp<N>_seed<S>.exr
 // (the spp and first seed in the name; a sidecar .txt repeats them with the
-// render time and the noise floor) and reused when present. Spectral methods are measured against the
-// spectral reference, RGB ones against the RGB reference: each converges to
-// its own colour model's image (RGB refracts at the d line only, so its limit
-// differs from the spectral one where the prism disperses; the program prints
-// that difference).
+// render time and the noise floor; a .png preview next to them) and reused
+// when present. Spectral methods are measured against the spectral reference,
+// RGB ones against the RGB reference.
 //
-// Each method renders at 1, 2, 4, ..., 256 spp; below 16 spp the error is the
-// mean over 16/spp seeds (one seed is too noisy there) and the time the best
-// of those renders. Errors: relMSE = mean over pixels and channels of
-// (v - ref)^2 / (ref^2 + 1e-2), and relMAE = sum |v - ref| / sum ref.
-// Writes bench/results/convergence.csv (scene, method, spp, seconds, relmse,
-// relmae) and bench/results/convergence_slopes.csv: per method the
-// least-squares slope of log relMSE against log seconds (ideal -1 for an
-// unbiased Monte Carlo estimator at constant cost per sample), the same with
-// the reference's noise floor subtracted, the same against log spp, the slope of log relMAE against log seconds (ideal -1/2),
-// and relMSE x seconds at 256 spp (lower is better at equal time).
+// Each method renders at 1, 2, 4, ..., 256 spp, each budget with
+// max(seeds, 16 / spp) independent seeds (seeds = 3 unless --seeds=N): the
+// CSV has the mean error over those renders and its standard deviation (the
+// spread of one render's error), and the best and the median time. Errors:
+// relMSE = mean over pixels and channels of (v - ref)^2 / (ref^2 + 1e-2), and
+// relMAE = sum |v - ref| / sum ref.
+// Writes bench/results/convergence.csv (scene, method, spp, renders, seconds
+// (best), seconds_median, relmse, relmse_sd, relmae, relmae_sd) and
+// bench/results/convergence_slopes.csv: per method the least-squares slope of
+// log mean relMSE against log best seconds (ideal -1 for an unbiased Monte
+// Carlo estimator at constant cost per sample) with the standard deviation of
+// the same slope fitted to each seed's renders alone, the slope with the
+// reference's noise floor subtracted, the slope against log spp, the slope of
+// log relMAE against log seconds (ideal -1/2), and relMSE x seconds at 256
+// spp (lower is better at equal time).
 //
-// With a fifth argument `adaptive`, it runs only the adaptive-sampling
-// comparison (docs/adaptive.md) on the default scene, RGB and spectral:
-// path/independent and path/sobol uniform at 1..256 spp against the same
-// with adaptive sampling (min 4 spp, at most 1024) at targets 1.6, 1.13,
-// 0.8, ..., 0.1 (relative error per pixel; the mean over 2 seeds while the
-// target is 0.8 or more), all in the same run so that their times compare,
-// into bench/results/convergence_adaptive.csv (the same columns, plus the
-// target and the mean spp) and convergence_adaptive_slopes.csv.
+// --scenes=a,b,... runs only those scenes; their rows replace the same
+// scenes' rows in the existing CSVs (other scenes' rows are kept, if the files
+// have the current columns), so scenes can be run one at a time.
+//
+// With the word `adaptive` as fifth argument, it runs only the
+// adaptive-sampling comparison (docs/adaptive.md) on the default scene, RGB
+// and spectral: path/independent and path/sobol uniform at 1..256 spp against
+// the same with adaptive sampling (min 4 spp, at most 1024) at targets 1.6,
+// 1.13, 0.8, ..., 0.1 (relative error per pixel; the mean over 2 seeds while
+// the target is 0.8 or more), all in the same run so that their times compare,
+// into bench/results/convergence_adaptive.csv (scene, method, spp, seconds,
+// relmse, relmae, target, mean_spp) and convergence_adaptive_slopes.csv.
 //
 // Usage: convergence_bench [out_dir=bench/results] [shared=../shared]
-//        [cache=bench/convergence/cache] [ref_spp=8192] [adaptive]
+//        [cache=bench/convergence/cache] [ref_spp=0] [adaptive]
+//        [--scenes=a,b,...] [--seeds=N] [--references-only]
+// --references-only renders (or loads) the selected scenes' references and
+// measures no method (for checking a scene; the CSVs keep only the header and
+// the rows of the scenes not selected).
+// ref_spp 0 (or absent) takes each scene's own reference spp (8192 for the
+// default, many-lights and env_spheres scenes; the others are listed in
+// main()); a positive value overrides them all.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 #include <prism/io/gltf.hpp>
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
 #include <prism/render/many_lights_scene.hpp>
+#include "scenes.hpp"
 
 using namespace prism;
 
@@ -63,10 +98,41 @@ namespace {
 constexpr int W = 64, H = 64;
 constexpr uint64_t ref_seed = 987654321;
 constexpr int max_spp = 256;
+// Reference spp of the new scenes, each chosen so that its reference takes at
+// most about 3 minutes on one thread of the 2-core development machine.
+constexpr int tiny_light_ref_spp = 8192, caustic_ref_spp = 4096, env_sun_ref_spp = 4096, prism_ref_spp = 8192;
 
 using Pixels = std::vector<float>;  // 3 floats per pixel, row-major
 
-enum class Integrator { path, bsdf };
+// path: NEE + MIS; nomis: NEE without MIS weights; bsdf: BSDF sampling only.
+enum class Integrator { path, nomis, bsdf };
+
+inline const char* integrator_name(Integrator i) {
+  return i == Integrator::path ? "path" : i == Integrator::nomis ? "nomis" : "bsdf";
+}
+inline const char* sampler_name(SamplerKind k) {
+  return k == SamplerKind::independent ? "independent" : k == SamplerKind::stratified ? "stratified" : "sobol";
+}
+
+struct Method {
+  Integrator integ;
+  SamplerKind sampler;
+};
+
+// The standard set: path with every sampler, nomis and (when with_bsdf) bsdf
+// with independent and sobol.
+std::vector<Method> standard_methods(bool with_bsdf = true) {
+  std::vector<Method> m = {{Integrator::path, SamplerKind::independent},
+                           {Integrator::path, SamplerKind::stratified},
+                           {Integrator::path, SamplerKind::sobol},
+                           {Integrator::nomis, SamplerKind::independent},
+                           {Integrator::nomis, SamplerKind::sobol}};
+  if (with_bsdf) {
+    m.push_back({Integrator::bsdf, SamplerKind::independent});
+    m.push_back({Integrator::bsdf, SamplerKind::sobol});
+  }
+  return m;
+}
 
 // target > 0: adaptive sampling to that relative error, spp the cap; the
 // samples taken go to *samples.
@@ -80,8 +146,11 @@ Pixels render_image(const Scene& scene, const Camera& cam, Integrator integ, Sam
   opt.sampler = k;
   opt.adaptive_target = target;
   opt.adaptive_min_spp = 4;
-  RenderStats st = integ == Integrator::path ? render(scene, cam, PathIntegrator{}, film, opt)
-                                             : render(scene, cam, BSDFPathIntegrator{}, film, opt);
+  PathOptions no_mis;
+  no_mis.mis = false;
+  RenderStats st = integ == Integrator::path    ? render(scene, cam, PathIntegrator{}, film, opt)
+                   : integ == Integrator::nomis ? render(scene, cam, PathIntegrator{no_mis}, film, opt)
+                                                : render(scene, cam, BSDFPathIntegrator{}, film, opt);
   if (seconds) *seconds = st.seconds;
   if (samples) *samples = st.samples;
   Pixels px(size_t(W * H * 3));
@@ -126,9 +195,45 @@ double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) 
   return n >= 2 && d > 0 ? (n * sxy - sx * sy) / d : std::nan("");
 }
 
+double mean_of(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0 : s / double(v.size());
+}
+// Sample standard deviation (0 for fewer than two values).
+double sd_of(const std::vector<double>& v) {
+  if (v.size() < 2) return 0;
+  double m = mean_of(v), ss = 0;
+  for (double x : v) ss += (x - m) * (x - m);
+  return std::sqrt(ss / double(v.size() - 1));
+}
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The lines of an existing CSV whose header is `header` and whose first
+// field (the scene) is not in `replaced`: kept when only some scenes run.
+std::vector<std::string> kept_rows(const std::string& path, const std::string& header,
+                                   const std::set<std::string>& replaced) {
+  std::vector<std::string> rows;
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line) || line != header) return rows;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    if (!replaced.count(line.substr(0, line.find(',')))) rows.push_back(line);
+  }
+  return rows;
+}
+
 struct Harness {
   std::string cache_dir;
-  int ref_spp = 8192;
+  int ref_spp_override = 0;  // > 0: every scene's reference at this spp
+  int seeds = 3;
+  bool references_only = false;  // render or load the references, measure no method
   std::ofstream csv, slopes;
 
   // The reference of `key` (scene and colour model): read from the cache, or
@@ -142,7 +247,8 @@ struct Harness {
     double floor = 0;  // the reference's own relMSE, estimated
   };
   template <class Scene, class Camera>
-  Reference reference(const std::string& key, const Scene& scene, const Camera& cam) {
+  Reference reference(const std::string& key, const Scene& scene, const Camera& cam, int scene_ref_spp = 8192) {
+    const int ref_spp = ref_spp_override > 0 ? ref_spp_override : scene_ref_spp;
     const std::string stem = cache_dir + "/" + key + "_" + std::to_string(W) + "x" + std::to_string(H) + "_spp" +
                              std::to_string(ref_spp) + "_seed" + std::to_string(ref_seed);
     Reference r;
@@ -170,6 +276,7 @@ struct Harness {
     r.floor = rel_mse_between(a, b, r.px) / 4;
     std::filesystem::create_directories(cache_dir);
     write_exr(stem + ".exr", Image{W, H, r.px});
+    write_png(stem + ".png", Image{W, H, r.px});
     std::ofstream side(stem + ".txt");
     side << "scene " << key << "\nwidth " << W << "\nheight " << H << "\nspp " << 2 * half << "\nseeds " << ref_seed
          << " " << ref_seed + 1 << "\nintegrator path\nsampler independent\nseconds " << sec_a + sec_b
@@ -178,47 +285,52 @@ struct Harness {
     return r;
   }
 
-  // Every integrator x sampler on one scene object; `suffix` names the rest of
-  // the method (light selection, colour model).
+  // Each method on one scene object; `suffix` names the rest of the method
+  // (light selection, colour model).
   template <class Scene, class Camera>
   void run_methods(const std::string& scene_name, const std::string& suffix, const Scene& scene, const Camera& cam,
-                   const Reference& reference, bool with_bsdf = true) {
+                   const Reference& reference, const std::vector<Method>& methods) {
     const Pixels& ref = reference.px;
-    const std::pair<Integrator, const char*> integrators[] = {{Integrator::path, "path"}, {Integrator::bsdf, "bsdf"}};
-    const std::pair<SamplerKind, const char*> samplers[] = {{SamplerKind::independent, "independent"},
-                                                            {SamplerKind::sobol, "sobol"}};
-    for (auto [integ, iname] : integrators) {
-      if (integ == Integrator::bsdf && !with_bsdf) continue;
-      for (auto [k, kname] : samplers) {
-        const std::string method = std::string(iname) + "/" + kname + suffix;
-        std::vector<double> secs, mses, maes, spps, corrected;
-        for (int spp = 1; spp <= max_spp; spp *= 2) {
-          const int seeds = std::max(1, 16 / spp);
-          double e = 0, a = 0, best = 1e30;
-          for (int s = 0; s < seeds; ++s) {
-            double sec = 0;
-            Pixels img = render_image(scene, cam, integ, k, spp, uint64_t(1 + s), &sec);
-            e += rel_mse(img, ref) / seeds;
-            a += rel_mae(img, ref) / seeds;
-            best = std::min(best, sec);
-          }
-          csv << scene_name << "," << method << "," << spp << "," << best << "," << e << "," << a << "\n";
-          secs.push_back(best), mses.push_back(e), maes.push_back(a), spps.push_back(spp);
-          corrected.push_back(e - reference.floor);
+    if (references_only) return;
+    for (const Method& m : methods) {
+      const std::string method = std::string(integrator_name(m.integ)) + "/" + sampler_name(m.sampler) + suffix;
+      std::vector<double> secs, mses, maes, spps, corrected;
+      // Per seed index s < seeds: that seed's time and relMSE at every budget.
+      std::vector<std::vector<double>> seed_secs(static_cast<size_t>(seeds)), seed_mses(static_cast<size_t>(seeds));
+      double sd_256 = 0;
+      for (int spp = 1; spp <= max_spp; spp *= 2) {
+        const int renders = std::max(seeds, 16 / spp);
+        std::vector<double> e, a, t;
+        for (int s = 0; s < renders; ++s) {
+          double sec = 0;
+          Pixels img = render_image(scene, cam, m.integ, m.sampler, spp, uint64_t(1 + s), &sec);
+          e.push_back(rel_mse(img, ref));
+          a.push_back(rel_mae(img, ref));
+          t.push_back(sec);
+          if (s < seeds) seed_secs[size_t(s)].push_back(sec), seed_mses[size_t(s)].push_back(e.back());
         }
-        csv.flush();
-        const double s_time = loglog_slope(secs, mses), s_spp = loglog_slope(spps, mses),
-                     s_corr = loglog_slope(secs, corrected),
-                     s_mae = loglog_slope(secs, maes), merit = mses.back() * secs.back();
-        std::printf("  %-28s slope relMSE/s %6.3f (less floor %6.3f) /spp %6.3f  relMAE/s %6.3f  256 spp: %.3f s "
-                    "relMSE %.4g relMAE %.4f relMSE x s %.4g\n",
-                    method.c_str(), s_time, s_corr, s_spp, s_mae, secs.back(), mses.back(), maes.back(), merit);
-        std::fflush(stdout);
-        slopes << scene_name << "," << method << "," << s_time << "," << s_corr << "," << s_spp << "," << s_mae << ","
-               << reference.floor << "," << secs.back()
-               << "," << mses.back() << "," << maes.back() << "," << merit << "\n";
-        slopes.flush();
+        const double best = *std::min_element(t.begin(), t.end());
+        csv << scene_name << "," << method << "," << spp << "," << renders << "," << best << "," << median_of(t)
+            << "," << mean_of(e) << "," << sd_of(e) << "," << mean_of(a) << "," << sd_of(a) << "\n";
+        secs.push_back(best), mses.push_back(mean_of(e)), maes.push_back(mean_of(a)), spps.push_back(spp);
+        corrected.push_back(mean_of(e) - reference.floor);
+        sd_256 = sd_of(e);
       }
+      csv.flush();
+      std::vector<double> seed_slopes;
+      for (int s = 0; s < seeds; ++s) seed_slopes.push_back(loglog_slope(seed_secs[size_t(s)], seed_mses[size_t(s)]));
+      const double s_time = loglog_slope(secs, mses), s_spp = loglog_slope(spps, mses),
+                   s_corr = loglog_slope(secs, corrected), s_mae = loglog_slope(secs, maes),
+                   s_sd = sd_of(seed_slopes), merit = mses.back() * secs.back();
+      std::printf("  %-32s slope relMSE/s %6.3f +- %.3f (less floor %6.3f) /spp %6.3f  relMAE/s %6.3f  256 spp: "
+                  "%.3f s relMSE %.4g +- %.2g relMAE %.4f relMSE x s %.4g\n",
+                  method.c_str(), s_time, s_sd, s_corr, s_spp, s_mae, secs.back(), mses.back(), sd_256, maes.back(),
+                  merit);
+      std::fflush(stdout);
+      slopes << scene_name << "," << method << "," << s_time << "," << s_sd << "," << s_corr << "," << s_spp << ","
+             << s_mae << "," << reference.floor << "," << secs.back() << "," << mses.back() << "," << sd_256 << ","
+             << maes.back() << "," << merit << "\n";
+      slopes.flush();
     }
   }
 };
@@ -271,20 +383,55 @@ void default_scene(Harness& h, const char* model, Harness::Reference* ref_out) {
   scene.build();
   const auto cam = default_camera(W, H);
   Harness::Reference ref = h.reference(std::string("default_") + model, scene, cam);
-  h.run_methods("default", std::string("/") + model, scene, cam, ref);
+  h.run_methods("default", std::string("/") + model, scene, cam, ref, standard_methods());
   *ref_out = std::move(ref);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string out = argc > 1 ? argv[1] : "bench/results";
-  const std::string shared = argc > 2 ? argv[2] : "../shared";
+  std::vector<std::string> pos;
+  std::set<std::string> only;
+  int seeds = 3;
+  bool references_only = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--scenes=", 0) == 0) {
+      std::stringstream ss(a.substr(9));
+      std::string name;
+      while (std::getline(ss, name, ','))
+        if (!name.empty()) only.insert(name);
+    } else if (a.rfind("--seeds=", 0) == 0) {
+      seeds = std::max(1, std::atoi(a.c_str() + 8));
+    } else if (a == "--references-only") {
+      references_only = true;
+    } else if (a.rfind("--", 0) == 0) {
+      std::fprintf(stderr, "convergence_bench: unknown option %s (known: --scenes=a,b,... --seeds=N "
+                   "--references-only)\n", a.c_str());
+      return 2;
+    } else {
+      pos.push_back(a);
+    }
+  }
+  const std::string out = pos.size() > 0 ? pos[0] : "bench/results";
+  const std::string shared = pos.size() > 1 ? pos[1] : "../shared";
   Harness h;
-  h.cache_dir = argc > 3 ? argv[3] : "bench/convergence/cache";
-  if (argc > 4) h.ref_spp = std::max(1, std::atoi(argv[4]));
+  h.cache_dir = pos.size() > 2 ? pos[2] : "bench/convergence/cache";
+  if (pos.size() > 3) h.ref_spp_override = std::max(0, std::atoi(pos[3].c_str()));
+  h.seeds = seeds;
+  h.references_only = references_only;
   std::filesystem::create_directories(out);
-  if (argc > 5 && std::string(argv[5]) == "adaptive") {
+  const std::set<std::string> known = {"default", "many_lights", "env_spheres", "tiny_light",
+                                       "caustic", "env_sun",     "prism"};
+  for (const std::string& n : only)
+    if (!known.count(n)) {
+      std::fprintf(stderr, "convergence_bench: unknown scene '%s' in --scenes (known: default, many_lights, "
+                   "env_spheres, tiny_light, caustic, env_sun, prism)\n", n.c_str());
+      return 2;
+    }
+  auto wants = [&](const std::string& n) { return only.empty() || only.count(n) > 0; };
+  const bool adaptive_mode = pos.size() > 4 && pos[4] == "adaptive";
+  if (adaptive_mode) {
     std::ofstream csv(out + "/convergence_adaptive.csv"), slopes(out + "/convergence_adaptive_slopes.csv");
     if (!csv || !slopes) {
       std::fprintf(stderr, "convergence_bench: cannot write into %s\n", out.c_str());
@@ -308,59 +455,145 @@ int main(int argc, char** argv) {
     std::printf("total %.0f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return 0;
   }
+  const std::string header = "scene,method,spp,renders,seconds,seconds_median,relmse,relmse_sd,relmae,relmae_sd";
+  const std::string slopes_header =
+      "scene,method,slope_relmse_seconds,slope_relmse_seconds_sd,slope_relmse_less_floor_seconds,slope_relmse_spp,"
+      "slope_relmae_seconds,ref_floor_relmse,seconds_256,relmse_256,relmse_256_sd,relmae_256,relmse_x_seconds_256";
+  // With --scenes, the other scenes' rows of the existing files are kept.
+  std::vector<std::string> keep_csv, keep_slopes;
+  if (!only.empty()) {
+    keep_csv = kept_rows(out + "/convergence.csv", header, only);
+    keep_slopes = kept_rows(out + "/convergence_slopes.csv", slopes_header, only);
+  }
   h.csv.open(out + "/convergence.csv");
   h.slopes.open(out + "/convergence_slopes.csv");
   if (!h.csv || !h.slopes) {
     std::fprintf(stderr, "convergence_bench: cannot write into %s\n", out.c_str());
     return 1;
   }
-  h.csv << "scene,method,spp,seconds,relmse,relmae\n";
-  h.slopes << "scene,method,slope_relmse_seconds,slope_relmse_less_floor_seconds,slope_relmse_spp,slope_relmae_seconds,"
-              "ref_floor_relmse,seconds_256,relmse_256,"
-              "relmae_256,relmse_x_seconds_256\n";
+  h.csv << header << "\n";
+  for (const auto& r : keep_csv) h.csv << r << "\n";
+  h.slopes << slopes_header << "\n";
+  for (const auto& r : keep_slopes) h.slopes << r << "\n";
+  h.csv.flush(), h.slopes.flush();
   const auto t0 = std::chrono::steady_clock::now();
+  std::printf("%d seed(s) per budget, %dx%d\n", h.seeds, W, H);
 
   // The default scene, RGB and spectral.
-  std::printf("default scene, %dx%d\n", W, H);
-  Harness::Reference ref_rgb, ref_spectral;
-  default_scene<RGB>(h, "rgb", &ref_rgb);
-  default_scene<Spectral>(h, "spectral", &ref_spectral);
-  std::printf("  RGB reference against the spectral one: relMSE %.4g relMAE %.4f (the colour model's bias)\n",
-              rel_mse(ref_rgb.px, ref_spectral.px), rel_mae(ref_rgb.px, ref_spectral.px));
+  if (wants("default")) {
+    std::printf("default scene\n");
+    Harness::Reference ref_rgb, ref_spectral;
+    default_scene<RGB>(h, "rgb", &ref_rgb);
+    default_scene<Spectral>(h, "spectral", &ref_spectral);
+    std::printf("  RGB reference against the spectral one: relMSE %.4g relMAE %.4f (the colour model's bias)\n",
+                rel_mse(ref_rgb.px, ref_spectral.px), rel_mae(ref_rgb.px, ref_spectral.px));
+  }
 
-  // The many-lights scene: power against BVH light selection (the BSDF
-  // integrator never selects a light, so it runs once).
-  {
-    std::printf("many-lights scene (1000 lights), %dx%d\n", W, H);
-    Scene<RGB> power, bvh;
+  // The many-lights scene: BVH against power and uniform light selection
+  // (the BSDF integrator never selects a light, so it runs once, under bvh).
+  if (wants("many_lights")) {
+    std::printf("many-lights scene (1000 lights)\n");
+    Scene<RGB> power, bvh, uniform;
     build_many_lights_scene(power);
     build_many_lights_scene(bvh);
+    build_many_lights_scene(uniform);
     power.set_light_selection(LightSelection::power);
     bvh.set_light_selection(LightSelection::bvh);
+    uniform.set_light_selection(LightSelection::uniform);
     power.build();
     bvh.build();
+    uniform.build();
     const auto cam = many_lights_camera(W, H);
     Harness::Reference ref = h.reference("many_lights_rgb", bvh, cam);
-    h.run_methods("many_lights", "/bvh", bvh, cam, ref);
-    h.run_methods("many_lights", "/power", power, cam, ref, false);
+    h.run_methods("many_lights", "/bvh", bvh, cam, ref, standard_methods());
+    const std::vector<Method> path_only = {{Integrator::path, SamplerKind::independent},
+                                           {Integrator::path, SamplerKind::sobol}};
+    h.run_methods("many_lights", "/power", power, cam, ref, path_only);
+    h.run_methods("many_lights", "/uniform", uniform, cam, ref, path_only);
   }
 
-  // MetalRoughSpheresNoTextures under the shared HDR environment.
-  const std::string model = shared + "/scenes/MetalRoughSpheresNoTextures/glTF/MetalRoughSpheresNoTextures.gltf";
   const std::string env = shared + "/scenes/envmaps/chinese_garden_1k.hdr";
-  if (std::filesystem::exists(model) && std::filesystem::exists(env)) {
-    std::printf("environment-lit MetalRoughSpheresNoTextures, %dx%d\n", W, H);
-    auto g = load_gltf<RGB>(model);
-    g.scene.add_light(ImageInfiniteLight<RGB>(read_environment(env), 1));
-    g.scene.build();
-    const auto cam = gltf_framing_camera(g.bounds, W, H);
-    Harness::Reference ref = h.reference("env_spheres_rgb", g.scene, cam);
-    h.run_methods("env_spheres", "/rgb", g.scene, cam, ref);
-  } else {
-    std::printf("convergence_bench: %s or %s not found: the environment-lit scene is skipped\n", model.c_str(),
-                env.c_str());
+  // MetalRoughSpheresNoTextures under the shared HDR environment.
+  if (wants("env_spheres")) {
+    const std::string model = shared + "/scenes/MetalRoughSpheresNoTextures/glTF/MetalRoughSpheresNoTextures.gltf";
+    if (std::filesystem::exists(model) && std::filesystem::exists(env)) {
+      std::printf("environment-lit MetalRoughSpheresNoTextures\n");
+      auto g = load_gltf<RGB>(model);
+      g.scene.add_light(ImageInfiniteLight<RGB>(read_environment(env), 1));
+      g.scene.build();
+      const auto cam = gltf_framing_camera(g.bounds, W, H);
+      Harness::Reference ref = h.reference("env_spheres_rgb", g.scene, cam);
+      h.run_methods("env_spheres", "/rgb", g.scene, cam, ref, standard_methods());
+    } else {
+      std::printf("convergence_bench: %s or %s not found: env_spheres is skipped\n", model.c_str(), env.c_str());
+    }
   }
-  std::printf("total %.0f s\n",
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+
+  // A tiny, very bright sphere light over diffuse and glossy surfaces.
+  if (wants("tiny_light")) {
+    std::printf("tiny_light: a sphere light of radius 0.004 with a normal light's power\n");
+    Scene<RGB> scene;
+    convergence::build_tiny_light_scene(scene);
+    scene.build();
+    const auto cam = convergence::tiny_light_camera(W, H);
+    Harness::Reference ref = h.reference("tiny_light_rgb", scene, cam, tiny_light_ref_spp);
+    h.run_methods("tiny_light", "/rgb", scene, cam, ref, standard_methods());
+  }
+
+  // Caustics through a smooth and a rough glass sphere.
+  if (wants("caustic")) {
+    std::printf("caustic: smooth and rough glass spheres under a small light\n");
+    Scene<RGB> scene;
+    convergence::build_caustic_scene(scene);
+    scene.build();
+    const auto cam = convergence::caustic_camera(W, H);
+    Harness::Reference ref = h.reference("caustic_rgb", scene, cam, caustic_ref_spp);
+    h.run_methods("caustic", "/rgb", scene, cam, ref, standard_methods());
+  }
+
+  // A glTF model under the HDR environment plus a distant sun.
+  if (wants("env_sun")) {
+    const std::string model = shared + "/scenes/DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+    if (std::filesystem::exists(model) && std::filesystem::exists(env)) {
+      std::printf("env_sun: DamagedHelmet under the HDR environment and a sun\n");
+      auto g = load_gltf<RGB>(model);
+      // A diffuse ground just under the model, 3x its extent, to catch its shadow.
+      const Bounds3f b = g.bounds;
+      const Vector3f ext = b.max - b.min;
+      const Float size = 3 * std::max(ext.x, ext.z);
+      const Point3f c = b.min + ext * Float(0.5);
+      MetalRoughMaterial ground_mr;  // the glTF scene's BxDF set: a dielectric, rough, grey
+      ground_mr.base_color = RGB(0.5f), ground_mr.metallic = 0, ground_mr.roughness = 1, ground_mr.name = "ground";
+      const typename decltype(g.scene)::material_type ground_m = ground_mr;
+      const uint32_t ground = g.scene.add_material(ground_m);
+      TriangleMesh plane;
+      append_quad(plane, {c.x - size / 2, b.min.y, c.z - size / 2}, {0, 0, size}, {size, 0, 0});
+      g.scene.add_mesh_instance(std::move(plane), ground);
+      g.scene.add_light(ImageInfiniteLight<RGB>(read_environment(env), 1));
+      // The sun: from above, front left; irradiance about twice the
+      // environment's on a horizontal surface.
+      g.scene.add_light(DistantLight<RGB>(Vector3f{0.5f, -0.8f, -0.35f}, RGB(1.f, 0.95f, 0.85f), 3.f));
+      g.scene.build();
+      Bounds3f framed = b;
+      framed = union_bounds(framed, Point3f{c.x, b.min.y, c.z});
+      const auto cam = gltf_framing_camera(framed, W, H);
+      Harness::Reference ref = h.reference("env_sun_rgb", g.scene, cam, env_sun_ref_spp);
+      h.run_methods("env_sun", "/rgb", g.scene, cam, ref, standard_methods(false));
+    } else {
+      std::printf("convergence_bench: %s or %s not found: env_sun is skipped\n", model.c_str(), env.c_str());
+    }
+  }
+
+  // A dispersive prism, spectral only.
+  if (wants("prism")) {
+    std::printf("prism: a small white lamp, a slit, an N-SF11 prism and a screen (spectral)\n");
+    Scene<Spectral> scene;
+    convergence::build_prism_scene(scene);
+    scene.build();
+    const auto cam = convergence::prism_camera(W, H);
+    Harness::Reference ref = h.reference("prism_spectral", scene, cam, prism_ref_spp);
+    h.run_methods("prism", "/spectral", scene, cam, ref, standard_methods());
+  }
+  std::printf("total %.0f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return 0;
 }

@@ -20,6 +20,13 @@
 // renderer runs it). The two sets of paths are disjoint and together cover
 // every path, so the sum is unbiased; docs/caustics.md has the derivation.
 // PathOptions::light_traced_caustics = false turns the split off.
+//
+// MIS on or off. PathOptions::mis = false (for comparisons, e.g. the
+// convergence harness; the default is true) keeps next-event estimation but
+// drops the weighting: a light sample counts in full, and emission that BSDF
+// sampling hits after a non-specular vertex counts only when next-event
+// estimation could not have sampled that point (light pmf x pdf_li = 0), so
+// every path is still counted exactly once and the estimator stays unbiased.
 #pragma once
 #include <cstdint>
 #include "prism/bxdfs/volume.hpp"
@@ -33,6 +40,7 @@ struct PathOptions {
   int max_depth = 64;       // maximum number of scattering events
   int rr_min_depth = 1;     // Russian roulette from this depth on (0-based)
   bool light_traced_caustics = true;  // see the file comment
+  bool mis = true;  // false: NEE without MIS weights (see the file comment)
 };
 
 struct RayCounter {
@@ -60,7 +68,7 @@ typename Scene::spectrum_type emitted(const Scene& scene, const SurfaceInteracti
 
 template <class Scene, class W>
 typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const W& lambda, Float bsdf_pdf,
-                                      bool weigh_by_mis, const LightSampleContext& prev) {
+                                      bool weigh_by_mis, const LightSampleContext& prev, bool mis = true) {
   using S = typename Scene::spectrum_type;
   S L{};
   for (uint32_t idx : scene.infinite_lights()) {
@@ -73,7 +81,10 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
               L += Le;
             } else {
               Float p_l = scene.light_pmf(prev, idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
-              L += Le * power_heuristic(bsdf_pdf, p_l);
+              if (mis)
+                L += Le * power_heuristic(bsdf_pdf, p_l);
+              else if (!(p_l > 0))
+                L += Le;  // NEE without MIS: only what a light sample cannot reach
             }
           }
         },
@@ -152,7 +163,7 @@ class PathIntegrator {
       ++counter.rays;
       auto si = scene.intersect(ray);
       if (!si) {
-        L += beta * detail::escaped(scene, ray, lambda, bsdf_pdf, depth > 0 && !specular_bounce, prev);
+        L += beta * detail::escaped(scene, ray, lambda, bsdf_pdf, depth > 0 && !specular_bounce, prev, m_opt.mis);
         break;
       }
       detail::attenuate(beta, sigma_a, ray, *si);
@@ -166,7 +177,10 @@ class PathIntegrator {
           const auto& light = scene.lights()[size_t(si->area_light)];
           Float p_l = scene.light_pmf(prev, uint32_t(si->area_light)) *
                       std::visit([&](const auto& l) { return Float(l.pdf_li(prev, ray.d, *si)); }, light);
-          L += beta * Le * power_heuristic(bsdf_pdf, p_l);
+          if (m_opt.mis)
+            L += beta * Le * power_heuristic(bsdf_pdf, p_l);
+          else if (!(p_l > 0))
+            L += beta * Le;  // NEE without MIS: only what a light sample cannot reach
         }
       }
       if (depth == m_opt.max_depth) break;
@@ -295,7 +309,7 @@ class PathIntegrator {
     Float p_l = sl->pmf * ls->pdf;
     LightKind kind = std::visit([](const auto& l) { return l.kind(); }, light);
     if (is_delta(kind)) return f * ls->L / p_l;
-    Float w = power_heuristic(p_l, bsdf.pdf(si.wo, ls->wi));
+    Float w = m_opt.mis ? power_heuristic(p_l, bsdf.pdf(si.wo, ls->wi)) : Float(1);
     return f * ls->L * (w / p_l);
   }
 
