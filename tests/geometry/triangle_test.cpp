@@ -81,3 +81,46 @@ TEST_CASE("intersect_triangle never reports a non-finite or non-positive t", "[g
   CHECK(bad == 0);
   CHECK(hits > 1000);
 }
+
+TEST_CASE("the closest of overlapping coplanar triangles does not depend on their order", "[geometry][triangle]") {
+  // Overlapping triangles in one plane give hit distances a rounding apart.
+  // Testing A then B (with t_max lowered to A's t) and B then A must keep the
+  // same, smaller t: the range test before the division may not reject a hit
+  // whose computed t is below t_max. Also checks that a hit at exactly t_max
+  // is rejected and one just below is kept.
+  PCG32 rng(21, 0xb0b);
+  size_t pairs = 0, differing = 0, order_dependent = 0, bad_limit = 0;
+  for (int i = 0; i < 200000; ++i) {
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), 0.5f};
+    Point3f b{a.x + uniform(rng, -0.3f, 0.3f), a.y + uniform(rng, -0.3f, 0.3f), 0.5f};
+    Point3f tri[2][3] = {{a, a + Vector3f{uniform(rng, 0.5f, 1), 0, 0}, a + Vector3f{0, uniform(rng, 0.5f, 1), 0}},
+                         {b, b + Vector3f{uniform(rng, 0.5f, 1), 0, 0}, b + Vector3f{0, uniform(rng, 0.5f, 1), 0}}};
+    Point3f target = a + Vector3f{0.1f, 0.1f, 0};
+    Point3f o{target.x + uniform(rng, -3, 3), target.y + uniform(rng, -3, 3), uniform(rng, 1, 4)};
+    Vector3f d = target - o;
+    RayTrianglePrecomp pc(d);
+    auto h0 = intersect_triangle(o, pc, infinity, tri[0][0], tri[0][1], tri[0][2]);
+    auto h1 = intersect_triangle(o, pc, infinity, tri[1][0], tri[1][1], tri[1][2]);
+    if (!h0 || !h1) continue;
+    ++pairs;
+    if (h0->t == h1->t) continue;
+    ++differing;
+    Float closest = std::min(h0->t, h1->t);
+    auto in_order = [&](int first) {
+      Float t_max = infinity;
+      for (int k : {first, 1 - first})
+        if (auto h = intersect_triangle(o, pc, t_max, tri[k][0], tri[k][1], tri[k][2])) t_max = h->t;
+      return t_max;
+    };
+    if (in_order(0) != closest || in_order(1) != closest) ++order_dependent;
+    // The farther triangle with t_max at the closer hit: rejected exactly when its t is not below.
+    int far = h0->t > h1->t ? 0 : 1;
+    if (intersect_triangle(o, pc, closest, tri[far][0], tri[far][1], tri[far][2])) ++bad_limit;
+    if (!intersect_triangle(o, pc, next_float_up(h0->t), tri[0][0], tri[0][1], tri[0][2])) ++bad_limit;
+    if (intersect_triangle(o, pc, h0->t, tri[0][0], tri[0][1], tri[0][2])) ++bad_limit;
+  }
+  INFO(pairs << " overlapping pairs, " << differing << " with different t");
+  CHECK(differing > 1000);
+  CHECK(order_dependent == 0);
+  CHECK(bad_limit == 0);
+}

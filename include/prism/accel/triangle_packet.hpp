@@ -4,8 +4,11 @@
 // the rounding error of t), lane for lane the same operations in the same
 // order, so a lane's verdict and t are bit for bit the scalar test's.
 //
-// The SIMD path needs FMA (the edge functions are difference_of_products,
-// which is two FMAs); without it, or with PRISM_BVH_NO_SIMD, each lane goes
+// The SIMD path runs on SSE2 (4-wide packets) or AVX (8-wide), chosen from
+// the compiler's flags. The edge functions are difference_of_products, as in
+// the scalar test: two FMAs where the hardware has FMA, otherwise products
+// of floats taken exactly in double (math/float.hpp). With
+// PRISM_BVH_NO_SIMD, or 8-wide packets without AVX and FMA, each lane goes
 // through the scalar test. Lanes that the single-precision test cannot decide
 // (an edge function exactly zero, which the scalar test re-evaluates in
 // double, or a t too small to be proven positive) are handed to the scalar
@@ -15,9 +18,20 @@
 #include <optional>
 #include "prism/geometry/triangle.hpp"
 
-#if !defined(PRISM_BVH_NO_SIMD) && defined(__FMA__) && defined(__AVX__)
+#if defined(PRISM_BVH_NO_SIMD)
+#elif defined(PRISM_TRIANGLE_PACKET_WIDTH) && PRISM_TRIANGLE_PACKET_WIDTH == 8
+#if defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF)
 #include <immintrin.h>
 #define PRISM_TRIANGLE_SIMD 1
+#endif
+#elif defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF)
+#include <immintrin.h>
+#define PRISM_TRIANGLE_SIMD 1
+#elif (defined(__SSE2__) || defined(_M_X64)) && !defined(FP_FAST_FMAF)
+// SSE2 without FMA: the edge functions in double, as difference_of_products.
+#include <emmintrin.h>
+#define PRISM_TRIANGLE_SIMD 1
+#define PRISM_TRIANGLE_SIMD_DOUBLE_EDGES 1
 #endif
 
 namespace prism {
@@ -68,8 +82,11 @@ inline V add(V a, V b) { return _mm256_add_ps(a, b); }
 inline V sub(V a, V b) { return _mm256_sub_ps(a, b); }
 inline V mul(V a, V b) { return _mm256_mul_ps(a, b); }
 inline V div(V a, V b) { return _mm256_div_ps(a, b); }
-inline V fmsub(V a, V b, V c) { return _mm256_fmsub_ps(a, b, c); }
-inline V fnmadd(V a, V b, V c) { return _mm256_fnmadd_ps(a, b, c); }
+// difference_of_products: c*d, then fma(a, b, -cd) + fma(-c, d, cd).
+inline V dop(V a, V b, V c, V d) {
+  V cd = _mm256_mul_ps(c, d);
+  return _mm256_add_ps(_mm256_fmsub_ps(a, b, cd), _mm256_fnmadd_ps(c, d, cd));
+}
 inline V vmax(V a, V b) { return _mm256_max_ps(a, b); }
 inline V band(V a, V b) { return _mm256_and_ps(a, b); }
 inline V bor(V a, V b) { return _mm256_or_ps(a, b); }
@@ -90,8 +107,24 @@ inline V add(V a, V b) { return _mm_add_ps(a, b); }
 inline V sub(V a, V b) { return _mm_sub_ps(a, b); }
 inline V mul(V a, V b) { return _mm_mul_ps(a, b); }
 inline V div(V a, V b) { return _mm_div_ps(a, b); }
-inline V fmsub(V a, V b, V c) { return _mm_fmsub_ps(a, b, c); }
-inline V fnmadd(V a, V b, V c) { return _mm_fnmadd_ps(a, b, c); }
+#if defined(PRISM_TRIANGLE_SIMD_DOUBLE_EDGES)
+// difference_of_products without FMA: a*b - c*d in double, lane for lane.
+inline V dop(V a, V b, V c, V d) {
+  auto half = [](__m128 a2, __m128 b2, __m128 c2, __m128 d2) {
+    return _mm_cvtpd_ps(_mm_sub_pd(_mm_mul_pd(_mm_cvtps_pd(a2), _mm_cvtps_pd(b2)),
+                                   _mm_mul_pd(_mm_cvtps_pd(c2), _mm_cvtps_pd(d2))));
+  };
+  __m128 lo = half(a, b, c, d);
+  __m128 hi = half(_mm_movehl_ps(a, a), _mm_movehl_ps(b, b), _mm_movehl_ps(c, c), _mm_movehl_ps(d, d));
+  return _mm_movelh_ps(lo, hi);
+}
+#else
+// difference_of_products: c*d, then fma(a, b, -cd) + fma(-c, d, cd).
+inline V dop(V a, V b, V c, V d) {
+  V cd = _mm_mul_ps(c, d);
+  return _mm_add_ps(_mm_fmsub_ps(a, b, cd), _mm_fnmadd_ps(c, d, cd));
+}
+#endif
 inline V vmax(V a, V b) { return _mm_max_ps(a, b); }
 inline V band(V a, V b) { return _mm_and_ps(a, b); }
 inline V bor(V a, V b) { return _mm_or_ps(a, b); }
@@ -123,11 +156,6 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
     x[k] = add(sub(load(p.v[3 * k + KX]), ox), mul(sx, z[k]));
     y[k] = add(sub(load(p.v[3 * k + KY]), oy), mul(sy, z[k]));
   }
-  // difference_of_products(a, b, c, d): cd = c * d; fma(a, b, -cd) + fma(-c, d, cd).
-  auto dop = [](V a, V b, V c, V d) {
-    V cd = mul(c, d);
-    return add(fmsub(a, b, cd), fnmadd(c, d, cd));
-  };
   V e0 = dop(x[1], y[2], y[1], x[2]);
   V e1 = dop(x[2], y[0], y[2], x[0]);
   V e2 = dop(x[0], y[1], y[0], x[1]);
@@ -146,7 +174,7 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
   V max_z = max3(z[0], z[1], z[2]);
   for (int k = 0; k < 3; ++k) z[k] = mul(z[k], sz);
   V t_scaled = add(add(mul(e0, z[0]), mul(e1, z[1])), mul(e2, z[2]));
-  V lim = mul(set1(t_max), det);
+  V lim = mul(set1(t_max * triangle_range_widen), det);
   // det < 0: reject t_scaled >= 0 or t_scaled < t_max * det; det > 0: reject
   // t_scaled <= 0 or t_scaled > t_max * det; det == 0 (or NaN): reject.
   V ok_neg = band(lt(det, z0), band(lt(t_scaled, z0), ge(t_scaled, lim)));
@@ -168,9 +196,9 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
   V delta_t = mul(mul(set1(3.0f), add(add(mul(mul(set1(gamma(3)), max_e), max_zt), mul(delta_e, max_zt)),
                                       mul(delta_z, max_e))),
                   abs(inv_det));
-  // Non-finite t is rejected; a finite t that is not provably positive is
+  // A t at or beyond t_max (or not finite) is rejected; a t that is not provably positive is
   // decided by the scalar test (in double).
-  live &= mask(lt(t, set1(infinity)));
+  live &= mask(lt(t, set1(t_max)));
   int proven = mask(gt(t, delta_t));
   *undecided |= live & ~proven;
   live &= proven;

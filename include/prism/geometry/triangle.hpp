@@ -54,6 +54,10 @@ struct TriangleHit {
 
 namespace detail {
 
+// (1 + 4 eps) >= 1 / (1 - eps)^3: t_max * widen * det, rounded twice, is at
+// least t_scaled whenever t_scaled / det rounds to below t_max.
+inline constexpr Float triangle_range_widen = 1 + gamma(4);
+
 // The t test of intersect_triangle redone in double precision, for hits that
 // single precision cannot prove to lie in front of the origin: the same
 // translation, shear and edge functions (the shear coefficients, floats, are
@@ -133,11 +137,16 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
   // the ray parameter and differs by 1 / d_z when d is not unit length).
   Float max_z = max_component(abs(Vector3f{p0t.z, p1t.z, p2t.z}));
 
-  // Scaled hit distance, compared against the range before dividing.
+  // Scaled hit distance, compared against the range before dividing. That
+  // test only rejects what certainly lies beyond t_max: t_max is widened by
+  // detail::triangle_range_widen to cover the rounding of the product and of
+  // the division below; the exact test is on t itself. So whether a hit is
+  // kept depends on its computed t alone, never on which triangle came first.
   p0t.z *= pc.sz; p1t.z *= pc.sz; p2t.z *= pc.sz;
   Float t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
-  if (det < 0 && (t_scaled >= 0 || t_scaled < t_max * det)) return std::nullopt;
-  if (det > 0 && (t_scaled <= 0 || t_scaled > t_max * det)) return std::nullopt;
+  Float lim = t_max * detail::triangle_range_widen * det;
+  if (det < 0 && (t_scaled >= 0 || t_scaled < lim)) return std::nullopt;
+  if (det > 0 && (t_scaled <= 0 || t_scaled > lim)) return std::nullopt;
 
   Float inv_det = 1 / det;
   Float b0 = e0 * inv_det, b1 = e1 * inv_det, b2 = e2 * inv_det;
@@ -156,7 +165,7 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
   Float delta_t = 3 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * std::abs(inv_det);
   // Written to reject NaN and infinite t too (overflowing products of huge
   // coordinates make det or t_scaled infinite, and their quotient NaN).
-  if (!(t < infinity)) return std::nullopt;
+  if (!(t < t_max)) return std::nullopt;
   if (!(t > delta_t)) {
     // Inconclusive in single precision: decide in double (rare).
     std::optional<Float> td = detail::refine_triangle_t(o, pc, t_max, p0, p1, p2);

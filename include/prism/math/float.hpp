@@ -88,7 +88,13 @@ inline Float safe_acos(Float x) { return std::acos(std::clamp(x, Float(-1), Floa
 constexpr Float radians(Float deg) { return (pi / 180) * deg; }
 constexpr Float degrees(Float rad) { return (180 / pi) * rad; }
 
-// a*b - c*d with one rounding of error via FMA (Kahan's algorithm).
+// a*b - c*d and a*b + c*d, accurate to within 1.5 ulp, with the exact sign.
+// With a hardware FMA (FP_FAST_FMAF): Kahan's algorithm, two FMAs. Without
+// one, where std::fma is a slow library call: in double, where the product of
+// two floats is exact, so the result is the exact value rounded to double and
+// then to float (within about half an ulp); it is zero exactly when the exact
+// value is (unless that underflows in float).
+#if defined(FP_FAST_FMAF)
 inline Float difference_of_products(Float a, Float b, Float c, Float d) {
   Float cd = c * d;
   Float diff = std::fma(a, b, -cd);
@@ -101,5 +107,13 @@ inline Float sum_of_products(Float a, Float b, Float c, Float d) {
   Float err = std::fma(c, d, -cd);
   return sum + err;
 }
+#else
+inline Float difference_of_products(Float a, Float b, Float c, Float d) {
+  return Float(double(a) * double(b) - double(c) * double(d));
+}
+inline Float sum_of_products(Float a, Float b, Float c, Float d) {
+  return Float(double(a) * double(b) + double(c) * double(d));
+}
+#endif
 
 }  // namespace prism
