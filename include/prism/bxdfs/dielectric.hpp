@@ -125,8 +125,8 @@ inline std::optional<Refraction> refract_dielectric(const Vector3f& wi, Vector3f
 // over the visible normals of R G / G1 (reflection) plus T G / G1
 // (refraction): a Fibonacci lattice of 377 points on the quintic warp
 // MicrofacetAlbedoTable uses (the integrand jumps along curves, where TIR
-// starts and where a direction crosses the horizon: a lattice's error there
-// is ~10 times smaller than a 19 x 19 grid's).
+// starts and where a direction crosses the horizon: there a lattice's error
+// is far smaller than a grid's of as many points; docs/bxdfs.md).
 // E_avg = 2 int E mu dmu is the exact integral of the piecewise-linear E(mu),
 // so the compensated lobe's albedo is 1 for the tabulated E exactly.
 class DielectricAlbedoTable {
@@ -197,7 +197,7 @@ class DielectricAlbedoTable {
   static double albedo(int side, double mu, double alpha, double eta, long points) {
     TrowbridgeReitz d(std::max(Float(alpha), TrowbridgeReitz::smooth_alpha),
                       std::max(Float(alpha), TrowbridgeReitz::smooth_alpha));
-    mu = std::max(mu, 1e-4);
+    mu = std::max(mu, 1e-8);  // mu = 0: the grazing limit
     Float s = side == 0 ? 1.0f : -1.0f;
     Vector3f wo{Float(std::sqrt(std::max(0.0, 1 - mu * mu))), 0, s * Float(mu)};
     const double g1 = d.G1(wo);
@@ -252,6 +252,13 @@ class DielectricAlbedoTable {
   double m_seconds = 0;
 };
 
+// The compensation is left off where the cosine-weighted mean loss 1 - E_avg
+// is below this, on either side (alpha below ~0.02): the loss is then
+// confined to mu within ~alpha of grazing, where the table's first mu
+// interval spreads it, and the lobe's peak (1 - E(0)) / (1 - E_avg) would
+// make sample weights of hundreds for a gain under 0.1%.
+inline constexpr Float ms_min_average_loss = 1e-3f;
+
 // Kulla and Conty's compensation of one rough dielectric interface (the
 // per-BxDF constants; DielectricAlbedoTable holds E). With L_s(mu) = 1 -
 // E_s(mu) the energy side s loses at mu, the added lobe is, in importance
@@ -284,7 +291,7 @@ struct DielectricMultipleScattering {
     ms.e = table.eta_cell(e);
     for (int s = 0; s < 2; ++s) {
       ms.e_avg[s] = table.E_avg(s, ms.a, ms.e);
-      if (!(1 - ms.e_avg[s] > Float(1e-5))) return ms;  // nothing measurable to compensate
+      if (!(1 - ms.e_avg[s] >= ms_min_average_loss)) return ms;
       ms.inv_norm[s] = inv_pi / (1 - ms.e_avg[s]);
     }
     // F_avg entering (no total internal reflection: a smooth integrand), by
