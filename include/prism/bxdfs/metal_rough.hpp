@@ -159,7 +159,7 @@ class MetalRoughBxDF {
   //   A(mu)) + F_ms,max (1 - E(mu)) (A: MicrofacetAlbedoTable's Schlick part),
   //   so a white base under a white layer has albedo 1;
   // - a glass lobe gets DielectricBxDF's compensation.
-  // Left off where 1 - E_avg < ms_min_average_loss (alpha below ~0.008, a
+  // Left off where 1 - E_avg < ms_min_average_loss (alpha below ~0.007, a
   // mean loss under 0.1%). The thin transmission lobe is not compensated.
   // The added lobes are sampled with the diffuse lobe's cosine-weighted
   // directions, their albedo added to its selection weight. Smooth surfaces
@@ -171,7 +171,7 @@ class MetalRoughBxDF {
     MS ms;
     ms.alpha = std::min(Float(1), std::sqrt(m_distrib.alpha_x() * m_distrib.alpha_y()));
     ms.e_avg = t.E_avg(ms.alpha);
-    if (!(1 - ms.e_avg >= ms_min_average_loss)) return;  // alpha below ~0.008 (dielectric.hpp)
+    if (!(1 - ms.e_avg >= ms_min_average_loss)) return;  // alpha below ~0.007 (dielectric.hpp)
     ms.inv_norm = inv_pi / (1 - ms.e_avg);
     using MSS = MultipleScattering<S>;
     for (int c = 0; c < S::size; ++c) {
