@@ -294,19 +294,8 @@ struct DielectricMultipleScattering {
       if (!(1 - ms.e_avg[s] >= ms_min_average_loss)) return ms;
       ms.inv_norm[s] = inv_pi / (1 - ms.e_avg[s]);
     }
-    // F_avg entering (no total internal reflection: a smooth integrand), by
-    // 8-point Gauss–Legendre on [0, 1].
-    static constexpr double x[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
-                                    -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
-                                    0.7966664774136267,  0.9602898564975363};
-    static constexpr double w[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
-                                    0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
-                                    0.2223810344533745, 0.1012285362903763};
-    double f_avg = 0;
-    for (int i = 0; i < 8; ++i) {
-      double mu = (x[i] + 1) / 2;
-      f_avg += w[i] * mu * double(fresnel_dielectric(Float(mu), e));
-    }
+    // F_avg entering (no total internal reflection: a smooth integrand).
+    double f_avg = cosine_weighted_average([&](Float mu) { return fresnel_dielectric(mu, e); });
     double ratio = double(1 - ms.e_avg[0]) / (double(e) * e * (1 - ms.e_avg[1]));  // t_1 / t_0
     double t0 = std::clamp(1 - f_avg, 0.0, 1.0), t1 = t0 * ratio;
     if (t1 > 1) {

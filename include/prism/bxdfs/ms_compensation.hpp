@@ -30,31 +30,13 @@ class MicrofacetAlbedoTable {
   static constexpr int n = 32;
 
   // The single-scattering albedo E(mu, alpha) for F = 1, bilinear in the grid.
-  Float E(Float mu, Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    auto [m0, m1, fm] = cell(mu);
-    Float e0 = m_E[a0][m0] * (1 - fm) + m_E[a0][m1] * fm;
-    Float e1 = m_E[a1][m0] * (1 - fm) + m_E[a1][m1] * fm;
-    return e0 * (1 - fa) + e1 * fa;
-  }
-  Float E_avg(Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    return m_avg[a0] * (1 - fa) + m_avg[a1] * fa;
-  }
+  Float E(Float mu, Float alpha) const { return bilinear(m_E, mu, alpha); }
+  Float E_avg(Float alpha) const { return linear(m_avg, alpha); }
   // The part of E weighted by 1 - s(c), Schlick's s(c) = (1 - c)^5 at
   // c = wo.wm: a Schlick Fresnel F = F0 (1 - s) + F90 s gives the albedo
   // F0 A + F90 (E - A) (the metal-rough material's layer, metal_rough.hpp).
-  Float A(Float mu, Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    auto [m0, m1, fm] = cell(mu);
-    Float e0 = m_A[a0][m0] * (1 - fm) + m_A[a0][m1] * fm;
-    Float e1 = m_A[a1][m0] * (1 - fm) + m_A[a1][m1] * fm;
-    return e0 * (1 - fa) + e1 * fa;
-  }
-  Float A_avg(Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    return m_A_avg[a0] * (1 - fa) + m_A_avg[a1] * fa;
-  }
+  Float A(Float mu, Float alpha) const { return bilinear(m_A, mu, alpha); }
+  Float A_avg(Float alpha) const { return linear(m_A_avg, alpha); }
 
   static const MicrofacetAlbedoTable& get() {
     static const MicrofacetAlbedoTable table;  // C++ guarantees one thread builds it
@@ -107,6 +89,17 @@ class MicrofacetAlbedoTable {
     return Float(std::min(1.0, 2 * avg));
   }
   static Float grid(int i) { return Float(i) / Float(n - 1); }
+  static Float bilinear(const std::array<std::array<Float, n>, n>& t, Float mu, Float alpha) {
+    auto [a0, a1, fa] = cell(alpha);
+    auto [m0, m1, fm] = cell(mu);
+    Float e0 = t[a0][m0] * (1 - fm) + t[a0][m1] * fm;
+    Float e1 = t[a1][m0] * (1 - fm) + t[a1][m1] * fm;
+    return e0 * (1 - fa) + e1 * fa;
+  }
+  static Float linear(const std::array<Float, n>& t, Float alpha) {
+    auto [a0, a1, fa] = cell(alpha);
+    return t[a0] * (1 - fa) + t[a1] * fa;
+  }
   // The quintic warp of [0, 1] and its derivative.
   static std::pair<double, double> warp(double t) {
     return {t * t * t * (10 - 15 * t + 6 * t * t), 30 * t * t * (1 - t) * (1 - t)};
@@ -134,7 +127,8 @@ struct MultipleScattering {
   Float e_avg = 1;   // E_avg(alpha)
   bool active = false;
 
-  // F_avg = 2 int F(mu) mu dmu by 8-point Gauss–Legendre on [0, 1].
+  // F_avg = 2 int F(mu) mu dmu by 8-point Gauss–Legendre on [0, 1]
+  // (cosine_weighted_average).
   template <class Fresnel>
   static MultipleScattering make(const TrowbridgeReitz& d, Fresnel&& fresnel) {
     MultipleScattering ms;
@@ -142,18 +136,7 @@ struct MultipleScattering {
     ms.alpha = std::min(Float(1), std::sqrt(d.alpha_x() * d.alpha_y()));
     ms.e_avg = MicrofacetAlbedoTable::get().E_avg(ms.alpha);
     if (!(ms.e_avg < 1)) return ms;
-    static constexpr double x[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
-                                    -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
-                                    0.7966664774136267,  0.9602898564975363};
-    static constexpr double w[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
-                                    0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
-                                    0.2223810344533745, 0.1012285362903763};
-    S f_avg{};
-    for (int i = 0; i < 8; ++i) {
-      Float mu = Float((x[i] + 1) / 2);
-      f_avg = f_avg + fresnel(mu) * Float(w[i] * mu);  // 2 * (w / 2) * F mu
-    }
-    ms.set_scale(f_avg);
+    ms.set_scale(cosine_weighted_average(fresnel));
     return ms;
   }
   // The same with F_avg given per channel (a Schlick Fresnel's closed form
