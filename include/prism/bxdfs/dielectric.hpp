@@ -277,7 +277,7 @@ inline constexpr Float ms_min_average_loss = 1e-3f;
 // if that made t_1 > 1, t_1 = 1 and t_0 follows from the ratio.
 struct DielectricMultipleScattering {
   DielectricAlbedoTable::Cell a, e;
-  Float e_avg[2] = {1, 1}, t[2] = {0, 0}, inv_norm[2] = {0, 0};  // inv_norm = 1 / (pi (1 - E_avg))
+  Float t[2] = {0, 0}, inv_norm[2] = {0, 0};  // inv_norm = 1 / (pi (1 - E_avg))
   bool active = false;
   bool swap = false;  // eta < 1: the outside (+z) is side 1
 
@@ -289,14 +289,15 @@ struct DielectricMultipleScattering {
     const auto& table = DielectricAlbedoTable::get();
     ms.a = table.alpha_cell(std::min(Float(1), std::sqrt(d.alpha_x() * d.alpha_y())));
     ms.e = table.eta_cell(e);
+    Float e_avg[2];
     for (int s = 0; s < 2; ++s) {
-      ms.e_avg[s] = table.E_avg(s, ms.a, ms.e);
-      if (!(1 - ms.e_avg[s] >= ms_min_average_loss)) return ms;
-      ms.inv_norm[s] = inv_pi / (1 - ms.e_avg[s]);
+      e_avg[s] = table.E_avg(s, ms.a, ms.e);
+      if (!(1 - e_avg[s] >= ms_min_average_loss)) return ms;
+      ms.inv_norm[s] = inv_pi / (1 - e_avg[s]);
     }
     // F_avg entering (no total internal reflection: a smooth integrand).
     double f_avg = cosine_weighted_average([&](Float mu) { return fresnel_dielectric(mu, e); });
-    double ratio = double(1 - ms.e_avg[0]) / (double(e) * e * (1 - ms.e_avg[1]));  // t_1 / t_0
+    double ratio = double(1 - e_avg[0]) / (double(e) * e * (1 - e_avg[1]));  // t_1 / t_0
     double t0 = std::clamp(1 - f_avg, 0.0, 1.0), t1 = t0 * ratio;
     if (t1 > 1) {
       t1 = 1;
