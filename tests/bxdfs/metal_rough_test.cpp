@@ -831,6 +831,26 @@ TEST_CASE("metal-rough multiple scattering: sample matches pdf, eval is reciproc
   };
   sweep(RGB{});
   sweep(S4{});
+  // A refracting volume: the glass lobe's compensation in the mixture, both
+  // sides, both hemispheres.
+  for (double side : {1.0, -1.0}) {
+    auto bxdf = make_bxdf<RGB>(with_ms(volume_material(0.7f, 0.3f, 0.6f, RGB(0.9f, 0.6f, 0.3f))));
+    REQUIRE(bxdf.is_refractive());
+    for (double theta : {0.0, 45.0, 80.0}) {
+      Vector3f wo = direction_at(theta, 0.7, side);
+      auto sample = [&]() -> std::optional<Vector3f> {
+        auto bs = bxdf.sample(wo, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
+        if (!bs) return std::nullopt;
+        return bs->wi;
+      };
+      auto pdf = [&](const Vector3f& wi) { return bxdf.pdf(wo, wi, TransportMode::radiance); };
+      for (int hemi : {1, -1}) {
+        std::ostringstream label;
+        label << "ms volume theta " << theta << " side " << side << (hemi > 0 ? " upper" : " lower");
+        runs.push_back({label.str(), chi2_window(sample, pdf, hemisphere_window(hemi), Chi2Config{60000, 20, 20})});
+      }
+    }
+  }
   const double level = prism_test::sidak_alpha(1e-3, int(runs.size()));
   for (const auto& r : runs) {
     INFO(r.label << ": " << r.result.summary());
