@@ -138,8 +138,18 @@ class DielectricAlbedoTable {
   static constexpr double x_max = 0.6;  // eta = 4
 
   DielectricAlbedoTable(int n_mu, int n_alpha, int n_eta, long points)
-      : m_nmu(n_mu), m_na(n_alpha), m_ne(n_eta), m_E(size_t(2 * n_eta * n_alpha * n_mu)), m_avg(size_t(2 * n_eta * n_alpha)) {
+      : m_nmu(n_mu),
+        m_na(n_alpha),
+        m_ne(n_eta),
+        m_E(size_t(2 * n_eta * n_alpha * n_mu)),
+        m_avg(size_t(2 * n_eta * n_alpha)),
+        m_favg(size_t(n_eta)) {
     auto t0 = std::chrono::steady_clock::now();
+    // F_avg entering (no total internal reflection: a smooth integrand).
+    for (int e = 0; e < m_ne; ++e) {
+      Float eta = Float(eta_at(e));
+      m_favg[size_t(e)] = cosine_weighted_average([&](Float mu) { return fresnel_dielectric(mu, eta); });
+    }
     for (int side = 0; side < 2; ++side)
       for (int e = 0; e < m_ne; ++e)
         for (int a = 0; a < m_na; ++a) {
@@ -182,6 +192,8 @@ class DielectricAlbedoTable {
     };
     return lerp2(at, a, e);
   }
+  // The cosine-weighted mean Fresnel reflectance entering (side 0).
+  Float F_avg(Cell e) const { return m_favg[size_t(e.i)] * (1 - e.f) + m_favg[size_t(e.i + 1)] * e.f; }
   Float E_avg(int side, Cell a, Cell e) const {
     auto at = [&](int ei, int ai) { return m_avg[size_t((side * m_ne + ei) * m_na + ai)]; };
     return lerp2(at, a, e);
@@ -248,7 +260,7 @@ class DielectricAlbedoTable {
   }
 
   int m_nmu, m_na, m_ne;
-  std::vector<Float> m_E, m_avg;
+  std::vector<Float> m_E, m_avg, m_favg;
   double m_seconds = 0;
 };
 
@@ -259,8 +271,9 @@ class DielectricAlbedoTable {
 // make sample weights of hundreds for a gain under 0.1%.
 inline constexpr Float ms_min_average_loss = 1e-3f;
 
-// Kulla and Conty's compensation of one rough dielectric interface (the
-// per-BxDF constants; DielectricAlbedoTable holds E). With L_s(mu) = 1 -
+// Kulla and Conty's compensation of one rough dielectric interface: its
+// constants, made from the tables (DielectricAlbedoTable holds E, E_avg and
+// F_avg) whenever DielectricBxDF needs them. With L_s(mu) = 1 -
 // E_s(mu) the energy side s loses at mu, the added lobe is, in importance
 // transport (the radiance-transport transmission is divided by eta'^2, as
 // the single-scattering one),
@@ -272,7 +285,8 @@ inline constexpr Float ms_min_average_loss = 1e-3f;
 // 1) = eta^2 f_imp(1 -> 0) (side 0 sees eta >= 1), fixes their ratio:
 //   t_0 (1 - E_avg,0) = eta^2 t_1 (1 - E_avg,1).
 // t_0 = 1 - F_avg(eta), the cosine-weighted mean transmittance entering
-// the denser side (so that without a difference between the two sides'
+// the denser side (8-point Gauss–Legendre at the table's eta grid,
+// interpolated; so that without a difference between the two sides'
 // losses, t_1 = 1 - F_avg(1 / eta), the identity of a smooth interface);
 // if that made t_1 > 1, t_1 = 1 and t_0 follows from the ratio.
 struct DielectricMultipleScattering {
@@ -295,8 +309,7 @@ struct DielectricMultipleScattering {
       if (!(1 - e_avg[s] >= ms_min_average_loss)) return ms;
       ms.inv_norm[s] = inv_pi / (1 - e_avg[s]);
     }
-    // F_avg entering (no total internal reflection: a smooth integrand).
-    double f_avg = cosine_weighted_average([&](Float mu) { return fresnel_dielectric(mu, e); });
+    double f_avg = table.F_avg(ms.e);
     double ratio = double(1 - e_avg[0]) / (double(e) * e * (1 - e_avg[1]));  // t_1 / t_0
     double t0 = std::clamp(1 - f_avg, 0.0, 1.0), t1 = t0 * ratio;
     if (t1 > 1) {
@@ -342,24 +355,31 @@ class DielectricBxDF {
   // a rough interface then scatters, reflected plus transmitted, the energy a
   // single microfacet event loses, from either side. Smooth interfaces (and
   // eta = 1) are unchanged.
-  void enable_multiple_scattering() { m_ms = DielectricMultipleScattering::make(m_distrib, m_eta); }
-  bool multiple_scattering() const { return m_ms.active; }
+  // Only a flag is kept: the lobe's constants are recomputed from the tables
+  // where they are needed (a few lookups), so that the BxDF, and every BSDF
+  // variant holding one, stays as small as without the switch.
+  void enable_multiple_scattering() { m_ms = DielectricMultipleScattering::make(m_distrib, m_eta).active; }
+  bool multiple_scattering() const { return m_ms; }
 
   S eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (is_smooth()) return S{};
+    if (m_ms) {
+      Float f;
+      eval_pdf_ms(ms_state(), wo, wi, mode, &f, nullptr);
+      return S(f);
+    }
     auto r = rough(wo, wi, mode);
-    Float f = r ? r->f : 0;
-    if (m_ms.active && wo.z != 0 && wi.z != 0) f += ms_eval(wo, wi, mode);
-    return S(f);
+    return r ? S(r->f) : S{};
   }
   Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (is_smooth()) return 0;
+    if (m_ms) {
+      Float p;
+      eval_pdf_ms(ms_state(), wo, wi, mode, nullptr, &p);
+      return p;
+    }
     auto r = rough(wo, wi, mode);
-    Float p = r ? r->pdf : 0;
-    if (!m_ms.active) return p;
-    if (wo.z == 0 || wi.z == 0) return 0;
-    Float pm = m_ms.probability(wo), share = m_ms.reflect_share(wo);
-    return (1 - pm) * p + pm * (same_hemisphere(wo, wi) ? share : 1 - share) * abs_cos_theta(wi) * inv_pi;
+    return r ? r->pdf : 0;
   }
 
   // Smooth: uc < R picks the reflection, otherwise the refraction (u is
@@ -368,7 +388,7 @@ class DielectricBxDF {
   std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
     if (wo.z == 0) return std::nullopt;
     if (is_smooth()) return sample_smooth(wo, uc, mode);
-    if (m_ms.active) return sample_ms(wo, uc, u, mode);
+    if (m_ms) return sample_ms(wo, uc, u, mode);
     Vector3f wm = m_distrib.sample_wm(wo, u);
     Float R = fresnel_dielectric(dot(wo, wm), m_eta);
     Vector3f wi;
@@ -408,21 +428,37 @@ class DielectricBxDF {
     return BSDFSample<S>{S(ft), r->wt, T, BxDFFlags::specular_transmission, r->etap};
   }
 
-  // The compensation lobe in the given transport mode.
-  Float ms_eval(const Vector3f& wo, const Vector3f& wi, TransportMode mode) const {
-    Float f = m_ms.eval(wo, wi);
-    if (mode == TransportMode::radiance && !same_hemisphere(wo, wi)) f /= sqr(wo.z > 0 ? m_eta : 1 / m_eta);
-    return f;
+  DielectricMultipleScattering ms_state() const { return DielectricMultipleScattering::make(m_distrib, m_eta); }
+  // With the compensation: f (if not null), the single-scattering lobes
+  // plus the added one in the given transport mode, and pdf (if not null),
+  // the mixture's density; one evaluation of the rough lobes serves both.
+  void eval_pdf_ms(const DielectricMultipleScattering& ms, const Vector3f& wo, const Vector3f& wi,
+                   TransportMode mode, Float* f, Float* pdf) const {
+    auto r = rough(wo, wi, mode);
+    if (f) *f = r ? r->f : 0;
+    if (pdf) *pdf = 0;
+    if (wo.z == 0 || wi.z == 0) return;
+    if (f) {
+      Float c = ms.eval(wo, wi);
+      if (mode == TransportMode::radiance && !same_hemisphere(wo, wi)) c /= sqr(wo.z > 0 ? m_eta : 1 / m_eta);
+      *f += c;
+    }
+    if (pdf) {
+      Float pm = ms.probability(wo), share = ms.reflect_share(wo);
+      *pdf = (1 - pm) * (r ? r->pdf : 0) +
+             pm * (same_hemisphere(wo, wi) ? share : 1 - share) * abs_cos_theta(wi) * inv_pi;
+    }
   }
   // With the compensation: uc < its probability picks it (then uc, rescaled,
   // picks the side and a cosine-weighted direction there); otherwise uc,
   // rescaled, drives the single-scattering sampler. Either way the sample
   // carries eval() and pdf() of the whole mixture at its direction.
   std::optional<BSDFSample<S>> sample_ms(const Vector3f& wo, Float uc, Point2f u, TransportMode mode) const {
-    Float pm = m_ms.probability(wo);
+    const DielectricMultipleScattering ms = ms_state();
+    Float pm = ms.probability(wo);
     Vector3f wi;
     if (uc < pm) {
-      Float share = m_ms.reflect_share(wo);
+      Float share = ms.reflect_share(wo);
       wi = sample_cosine_hemisphere(u);
       bool stay = uc < pm * share;
       if ((wo.z > 0) != stay) wi.z = -wi.z;
@@ -439,8 +475,9 @@ class DielectricBxDF {
       }
     }
     if (wi.z == 0) return std::nullopt;
-    Float p = pdf(wo, wi, mode);
-    S f = eval(wo, wi, mode);
+    Float fv, p;
+    eval_pdf_ms(ms, wo, wi, mode, &fv, &p);
+    S f(fv);
     if (!(p > 0) || !(f[0] > 0)) return std::nullopt;
     bool refl = same_hemisphere(wo, wi);
     return BSDFSample<S>{f, wi, p, refl ? BxDFFlags::glossy_reflection : BxDFFlags::glossy_transmission,
@@ -491,7 +528,7 @@ class DielectricBxDF {
 
   Float m_eta = 1.5f;
   TrowbridgeReitz m_distrib;
-  DielectricMultipleScattering m_ms;
+  bool m_ms = false;  // enable_multiple_scattering()
 };
 
 // A dielectric material: an IOR law, a name (for error messages) and a

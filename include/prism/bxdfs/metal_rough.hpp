@@ -164,30 +164,42 @@ class MetalRoughBxDF {
   // The added lobes are sampled with the diffuse lobe's cosine-weighted
   // directions, their albedo added to its selection weight. Smooth surfaces
   // are unchanged.
-  void enable_multiple_scattering() {
-    if (m_glass_k > 0) m_glass.enable_multiple_scattering();
-    if (is_smooth()) return;
-    const auto& t = MicrofacetAlbedoTable::get();
+  // The compensation's constants, made from the tables where they are
+  // needed (only a flag is kept, so the BxDF stays as small as without it).
+  struct MS {
+    S lobe{};  // metallic F_ms(metal) + layer_k F_ms(layer), per channel
+    Float alpha = 0, inv_norm = 0;  // inv_norm = 1 / (pi (1 - E_avg))
+    Float fms_max = 0;              // F_ms of the F0max layer
+    Float base_norm = 0;            // 1 / (1 - E_l,avg); 0 when the layer reflects everything
+    bool active = false;
+  };
+  MS ms_state() const {
     MS ms;
+    if (is_smooth()) return ms;
+    const auto& t = MicrofacetAlbedoTable::get();
     ms.alpha = std::min(Float(1), std::sqrt(m_distrib.alpha_x() * m_distrib.alpha_y()));
-    ms.e_avg = t.E_avg(ms.alpha);
-    if (!(1 - ms.e_avg >= ms_min_average_loss)) return;  // alpha below ~0.007 (dielectric.hpp)
-    ms.inv_norm = inv_pi / (1 - ms.e_avg);
+    const Float e_avg = t.E_avg(ms.alpha);
+    if (!(1 - e_avg >= ms_min_average_loss)) return ms;  // alpha below ~0.007 (dielectric.hpp)
+    ms.inv_norm = inv_pi / (1 - e_avg);
     using MSS = MultipleScattering<S>;
     for (int c = 0; c < S::size; ++c) {
       Float k = 0;
-      if (m_metallic > 0) k += m_metallic * MSS::fms(m_base[c] + (1 - m_base[c]) / 21, ms.e_avg);
-      if (m_w > 0 && m_layer_k > 0) k += m_layer_k * MSS::fms(m_w * (m_f0[c] + (1 - m_f0[c]) / 21), ms.e_avg);
+      if (m_metallic > 0) k += m_metallic * MSS::fms(m_base[c] + (1 - m_base[c]) / 21, e_avg);
+      if (m_w > 0 && m_layer_k > 0) k += m_layer_k * MSS::fms(m_w * (m_f0[c] + (1 - m_f0[c]) / 21), e_avg);
       ms.lobe[c] = k;
     }
-    ms.fms_max = m_w > 0 ? MSS::fms(m_w * (m_f0_max + (1 - m_f0_max) / 21), ms.e_avg) : 0;
+    ms.fms_max = m_w > 0 ? MSS::fms(m_w * (m_f0_max + (1 - m_f0_max) / 21), e_avg) : 0;
     Float a_avg = t.A_avg(ms.alpha);
-    Float layer_avg = m_w * (m_f0_max * a_avg + (ms.e_avg - a_avg)) + ms.fms_max * (1 - ms.e_avg);
+    Float layer_avg = m_w * (m_f0_max * a_avg + (e_avg - a_avg)) + ms.fms_max * (1 - e_avg);
     ms.base_norm = 1 - layer_avg > Float(1e-6) ? 1 / (1 - layer_avg) : 0;
     ms.active = true;
-    m_ms = ms;
+    return ms;
   }
-  bool multiple_scattering() const { return m_ms.active || m_glass.multiple_scattering(); }
+  void enable_multiple_scattering() {
+    if (m_glass_k > 0) m_glass.enable_multiple_scattering();
+    m_ms = ms_state().active;
+  }
+  bool multiple_scattering() const { return m_ms || m_glass.multiple_scattering(); }
   const DielectricBxDF<S>& glass() const { return m_glass; }
 
   bool is_smooth() const { return m_distrib.effectively_smooth(); }
@@ -269,7 +281,7 @@ class MetalRoughBxDF {
     if (m_metallic > 0 || (m_w > 0 && m_layer_k > 0))
       f = f | (smooth ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
     if (m_glass_k > 0) f = f | m_glass.flags();
-    if (m_ms.active) f = f | BxDFFlags::diffuse_reflection;  // the compensation's cosine-weighted samples
+    if (m_ms) f = f | BxDFFlags::diffuse_reflection;  // the compensation's cosine-weighted samples
     // The base receives nothing when the layer reflects everything (F0 = 1, w = 1).
     const bool base_lit = m_base_avg > 0 && (m_w < 1 || m_f0_max < 1);
     if (base_lit && m_diffuse_k > 0) f = f | BxDFFlags::diffuse_reflection;
@@ -326,9 +338,10 @@ class MetalRoughBxDF {
       Float m = m_metallic > 0 ? 1 - (1 - m_base_avg) * sc : 0;
       w.reflection = m_layer_k * d + m_metallic * m;
     }
-    if (m_ms.active) {
-      Float loss = 1 - MicrofacetAlbedoTable::get().E(mu, m_ms.alpha);
-      w.diffuse = m_diffuse_k * m_base_avg * (1 - layer_albedo(mu)) + m_ms.lobe.average() * loss;
+    if (m_ms) {
+      const MS ms = ms_state();
+      Float loss = 1 - MicrofacetAlbedoTable::get().E(mu, ms.alpha);
+      w.diffuse = m_diffuse_k * m_base_avg * (1 - layer_albedo(ms, mu)) + ms.lobe.average() * loss;
     } else {
       w.diffuse = m_diffuse_k * m_base_avg * base_weight(mu);
     }
@@ -357,10 +370,10 @@ class MetalRoughBxDF {
   Float base_weight(Float c) const { return (1 - m_w) + m_w * (1 - m_f0_max) * detail::schlick_complement(c); }
   // With the compensation: the directional albedo E_l(mu) of the compensated
   // layer of F0max (enable_multiple_scattering), at most 1.
-  Float layer_albedo(Float mu) const {
+  Float layer_albedo(const MS& ms, Float mu) const {
     const auto& t = MicrofacetAlbedoTable::get();
-    Float e = t.E(mu, m_ms.alpha), a = t.A(mu, m_ms.alpha);
-    return std::min(Float(1), m_w * (m_f0_max * a + (e - a)) + m_ms.fms_max * (1 - e));
+    Float e = t.E(mu, ms.alpha), a = t.A(mu, ms.alpha);
+    return std::min(Float(1), m_w * (m_f0_max * a + (e - a)) + ms.fms_max * (1 - e));
   }
 
   const TrowbridgeReitz& distribution() const { return m_distrib; }
@@ -405,12 +418,14 @@ class MetalRoughBxDF {
     if (pdf) *pdf = 0;
     Microfacet mf;
     if (wi.z > 0) {
-      if (f && m_ms.active) {
+      if (f && m_ms) {
+        const MS ms = ms_state();
         const auto& t = MicrofacetAlbedoTable::get();
         if (m_diffuse_k > 0)
-          *f = m_base * (m_diffuse_k * inv_pi * (1 - layer_albedo(wo.z)) * (1 - layer_albedo(wi.z)) * m_ms.base_norm);
-        Float lo = 1 - t.E(wo.z, m_ms.alpha), li = 1 - t.E(wi.z, m_ms.alpha);
-        *f += m_ms.lobe * (std::max(Float(0), lo) * std::max(Float(0), li) * m_ms.inv_norm);
+          *f = m_base * (m_diffuse_k * inv_pi * (1 - layer_albedo(ms, wo.z)) * (1 - layer_albedo(ms, wi.z)) *
+                         ms.base_norm);
+        Float lo = 1 - t.E(wo.z, ms.alpha), li = 1 - t.E(wi.z, ms.alpha);
+        *f += ms.lobe * (std::max(Float(0), lo) * std::max(Float(0), li) * ms.inv_norm);
       } else if (f && m_diffuse_k > 0) {
         *f = m_base * (m_diffuse_k * inv_pi * base_weight(wo.z) * base_weight(wi.z));
       }
@@ -483,14 +498,7 @@ class MetalRoughBxDF {
   Float m_f0_max = 0, m_w = 0, m_metallic = 0, m_diffuse_k = 0, m_trans_k = 0, m_layer_k = 1, m_base_avg = 0;
   DielectricBxDF<S> m_glass;
   Float m_glass_k = 0;  // (1 - metallic) T for a refractive volume, else 0
-  // The compensation's constants (enable_multiple_scattering).
-  struct MS {
-    S lobe{};  // metallic F_ms(metal) + layer_k F_ms(layer), per channel
-    Float alpha = 0, e_avg = 1, inv_norm = 0;  // inv_norm = 1 / (pi (1 - E_avg))
-    Float fms_max = 0;                         // F_ms of the F0max layer
-    Float base_norm = 0;                       // 1 / (1 - E_l,avg); 0 when the layer reflects everything
-    bool active = false;
-  } m_ms;
+  bool m_ms = false;  // enable_multiple_scattering()
 };
 
 // The glTF metallic-roughness material with KHR_materials_ior,
