@@ -25,6 +25,7 @@
 #include <optional>
 #include <vector>
 #include <prism/bxdfs/bxdf.hpp>
+#include <prism/bxdfs/microfacet.hpp>
 #include <prism/sampling/pcg32.hpp>
 #include <prism/sampling/warps.hpp>
 #include "support/chi2.hpp"
@@ -213,6 +214,30 @@ Albedo albedo(const B& bxdf, const Vector3f& wo, TransportMode mode, int channel
   }
   double mean = s / double(n), var = std::max(0.0, s2 / double(n) - mean * mean) / double(n - 1);
   return {mean, std::sqrt(var)};
+}
+
+// The single-scattering albedo of the Trowbridge–Reitz reflection lobe for
+// F = 1 at wo (E) and its part weighted by 1 - (1 - wo.wm)^5 (A, the F0 part
+// of a Schlick Fresnel), independently of MicrofacetAlbedoTable: m x m
+// strata of the visible normals.
+struct MicrofacetReference {
+  double E = 0, A = 0;
+};
+inline MicrofacetReference microfacet_reference(const Vector3f& wo, Float alpha, int m = 256) {
+  TrowbridgeReitz d(alpha, alpha);
+  MicrofacetReference r;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      Vector3f wm = d.sample_wm(wo, {(Float(i) + 0.5f) / Float(m), (Float(j) + 0.5f) / Float(m)});
+      Vector3f wi = reflect(wo, wm);
+      if (!(wi.z > 0)) continue;
+      double v = double(d.G(wo, wi)) / double(d.G1(wo));
+      r.E += v;
+      r.A += v * (1 - std::pow(1 - std::clamp(double(dot(wo, wm)), 0.0, 1.0), 5));
+    }
+  r.E /= double(m) * m;
+  r.A /= double(m) * m;
+  return r;
 }
 
 // eval, pdf and sample at (and from) the given directions are finite and

@@ -21,18 +21,7 @@ ConductorBxDF<RGB> white(Float alpha, bool ms) {
 
 // The single-scattering albedo for F = 1 at (mu, alpha), independently of
 // the table: 256 x 256 strata of the visible normals.
-double reference_E(double theta_deg, Float alpha) {
-  TrowbridgeReitz d(alpha, alpha);
-  Vector3f wo = direction_at(theta_deg);
-  double sum = 0;
-  const int m = 256;
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < m; ++j) {
-      Vector3f wi = reflect(wo, d.sample_wm(wo, {(Float(i) + 0.5f) / m, (Float(j) + 0.5f) / m}));
-      if (wi.z > 0) sum += double(d.G(wo, wi)) / double(d.G1(wo));
-    }
-  return sum / (m * m);
-}
+double reference_E(double theta_deg, Float alpha) { return microfacet_reference(direction_at(theta_deg), alpha).E; }
 
 }  // namespace
 

@@ -21,8 +21,11 @@
 //   radiance transport, none in importance transport, so that
 //   f_radiance(wo, wi) = f_importance(wi, wo). sample() returns the f and pdf
 //   that eval() and pdf() give at (wo, wi) (both recomputed from the rounded
-//   wi), so MIS sees one density. Single scattering only: a rough interface
-//   loses the energy of light that would bounce between microfacets.
+//   wi), so MIS sees one density. Single scattering by default: a rough
+//   interface loses the energy of light that would bounce between
+//   microfacets; enable_multiple_scattering() (DielectricMaterial::
+//   multiple_scattering) adds Kulla and Conty's compensation lobe
+//   (DielectricMultipleScattering below).
 // - Total internal reflection (of the interface, or of a microfacet): R = 1,
 //   so every sample reflects.
 // - Roughness below TrowbridgeReitz::smooth_alpha (and eta = 1) takes the
@@ -35,15 +38,19 @@
 // the refracted direction depends on the wavelength).
 #pragma once
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <type_traits>
+#include <utility>
+#include <vector>
 #include "prism/bxdfs/bxdf.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/volume.hpp"
 #include "prism/geometry/interaction.hpp"
+#include "prism/sampling/warps.hpp"
 #include "prism/spectra/dispersion.hpp"
 
 namespace prism {
@@ -103,6 +110,236 @@ inline std::optional<Refraction> refract_dielectric(const Vector3f& wi, Vector3f
   return Refraction{wt, Float(e)};
 }
 
+// The single-scattering directional albedo E (reflection + transmission, in
+// importance transport: the fraction of the energy arriving along wo that
+// leaves after one microfacet event) of the rough dielectric on the isotropic
+// Trowbridge–Reitz distribution, tabulated once (on first use, thread-safe)
+// for Kulla and Conty's energy compensation (DielectricBxDF's
+// enable_multiple_scattering(); docs/bxdfs.md).
+// Axes: mu = |cos theta_o| uniform on [0, 1]; alpha = t^2 and the IOR by
+// x = (eta - 1) / (eta + 1) = x_max t^2 (eta from 1 to 4; F0 = x^2), t
+// uniform on [0, 1], denser where E changes fastest (small alpha, eta near
+// 1). Two sides: 0, light arriving from the side where the relative IOR is
+// eta >= 1 (entering the denser medium); 1, from the other side (1 / eta,
+// with total internal reflection). Each entry is a deterministic quadrature
+// over the visible normals of R G / G1 (reflection) plus T G / G1
+// (refraction): a Fibonacci lattice of 377 points on the quintic warp
+// MicrofacetAlbedoTable uses (the integrand jumps along curves, where TIR
+// starts and where a direction crosses the horizon: there a lattice's error
+// is far smaller than a grid's of as many points; docs/bxdfs.md).
+// E_avg = 2 int E mu dmu is the exact integral of the piecewise-linear E(mu),
+// so the compensated lobe's albedo is 1 for the tabulated E exactly.
+class DielectricAlbedoTable {
+ public:
+  // Chosen by measuring against a 75025-point quadrature at off-grid points
+  // (tests/bxdfs/ms_dielectric_test.cpp prints the error; docs/bxdfs.md).
+  static constexpr int default_n_mu = 32, default_n_alpha = 16, default_n_eta = 8;
+  static constexpr long default_points = 377;
+  static constexpr double x_max = 0.6;  // eta = 4
+
+  DielectricAlbedoTable(int n_mu, int n_alpha, int n_eta, long points)
+      : m_nmu(n_mu),
+        m_na(n_alpha),
+        m_ne(n_eta),
+        m_E(size_t(2 * n_eta * n_alpha * n_mu)),
+        m_avg(size_t(2 * n_eta * n_alpha)),
+        m_favg(size_t(n_eta)) {
+    auto t0 = std::chrono::steady_clock::now();
+    // F_avg entering (no total internal reflection: a smooth integrand).
+    for (int e = 0; e < m_ne; ++e) {
+      Float eta = Float(eta_at(e));
+      m_favg[size_t(e)] = cosine_weighted_average([&](Float mu) { return fresnel_dielectric(mu, eta); });
+    }
+    for (int side = 0; side < 2; ++side)
+      for (int e = 0; e < m_ne; ++e)
+        for (int a = 0; a < m_na; ++a) {
+          double avg = 0;
+          for (int m = 0; m < m_nmu; ++m) {
+            m_E[index(side, e, a, m)] = Float(albedo(side, grid(m, m_nmu), sqr(grid(a, m_na)), eta_at(e), points));
+            if (m > 0) {
+              double m0 = grid(m - 1, m_nmu), m1 = grid(m, m_nmu);
+              avg += (m1 - m0) / 6 * (double(m_E[index(side, e, a, m - 1)]) * (2 * m0 + m1) +
+                                      double(m_E[index(side, e, a, m)]) * (m0 + 2 * m1));
+            }
+          }
+          m_avg[size_t((side * m_ne + e) * m_na + a)] = Float(std::min(1.0, 2 * avg));
+        }
+    m_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+
+  static const DielectricAlbedoTable& get() {
+    static const DielectricAlbedoTable table(default_n_mu, default_n_alpha, default_n_eta, default_points);
+    return table;
+  }
+
+  // A position along the alpha or eta axis: the lower grid index and the
+  // fraction towards the next.
+  struct Cell {
+    int i = 0;
+    Float f = 0;
+  };
+  Cell alpha_cell(Float alpha) const { return cell(std::sqrt(std::clamp(alpha, Float(0), Float(1))), m_na); }
+  // eta >= 1 (clamped into [1, 4]).
+  Cell eta_cell(Float eta) const {
+    double x = (double(std::max(eta, Float(1))) - 1) / (double(std::max(eta, Float(1))) + 1);
+    return cell(Float(std::sqrt(x / x_max)), m_ne);
+  }
+  // E at mu for a (alpha, eta) position: linear in each axis.
+  Float E(int side, Float mu, Cell a, Cell e) const {
+    Cell m = cell(mu, m_nmu);
+    auto at = [&](int ei, int ai) {
+      return m_E[index(side, ei, ai, m.i)] * (1 - m.f) + m_E[index(side, ei, ai, m.i + 1)] * m.f;
+    };
+    return lerp2(at, a, e);
+  }
+  // The cosine-weighted mean Fresnel reflectance entering (side 0).
+  Float F_avg(Cell e) const { return m_favg[size_t(e.i)] * (1 - e.f) + m_favg[size_t(e.i + 1)] * e.f; }
+  Float E_avg(int side, Cell a, Cell e) const {
+    auto at = [&](int ei, int ai) { return m_avg[size_t((side * m_ne + ei) * m_na + ai)]; };
+    return lerp2(at, a, e);
+  }
+  // Convenience for tests: E at (mu, alpha, eta).
+  Float E(int side, Float mu, Float alpha, Float eta) const { return E(side, mu, alpha_cell(alpha), eta_cell(eta)); }
+  double build_seconds() const { return m_seconds; }
+  int entries() const { return int(m_E.size()); }
+
+  // The quadrature itself (a Fibonacci lattice of at least `points` visible
+  // normals), for the table and for the tests' high-resolution reference.
+  // side as above; eta >= 1.
+  static double albedo(int side, double mu, double alpha, double eta, long points) {
+    TrowbridgeReitz d(std::max(Float(alpha), TrowbridgeReitz::smooth_alpha),
+                      std::max(Float(alpha), TrowbridgeReitz::smooth_alpha));
+    mu = std::max(mu, 1e-8);  // mu = 0: the grazing limit
+    Float s = side == 0 ? 1.0f : -1.0f;
+    Vector3f wo{Float(std::sqrt(std::max(0.0, 1 - mu * mu))), 0, s * Float(mu)};
+    const double g1 = d.G1(wo);
+    // The Fibonacci lattice (i / F_k, i F_(k-1) / F_k mod 1), F_k the
+    // smallest Fibonacci number >= points.
+    long n = 1, g = 1;
+    while (n < points) {
+      long next = n + g;
+      g = n;
+      n = next;
+    }
+    double sum = 0;
+    for (long i = 0; i < n; ++i) {
+      auto [ux, wx] = warp((double(i) + 0.5) / double(n));
+      auto [uy, wy] = warp((double((i * g) % n) + 0.5) / double(n));
+      Vector3f wm = d.sample_wm(wo, {Float(ux), Float(uy)});
+      double R = fresnel_dielectric(dot(wo, wm), Float(eta)), v = 0;
+      Vector3f wr = reflect(wo, wm);
+      if (wr.z * wo.z > 0) v += R * double(d.G(wo, wr));
+      if (R < 1)
+        if (auto t = refract_dielectric(wo, wm, Float(eta)); t && t->wt.z * wo.z < 0)
+          v += (1 - R) * double(d.G(wo, t->wt));
+      sum += wx * wy * v / g1;
+    }
+    return std::clamp(sum / double(n), 0.0, 1.0);
+  }
+
+ private:
+  static double grid(int i, int n) { return double(i) / double(n - 1); }
+  double eta_at(int e) const {
+    double x = x_max * sqr(grid(e, m_ne));
+    return (1 + x) / (1 - x);
+  }
+  static std::pair<double, double> warp(double t) {
+    return {t * t * t * (10 - 15 * t + 6 * t * t), 30 * t * t * (1 - t) * (1 - t)};
+  }
+  static Cell cell(Float x, int n) {
+    Float t = std::clamp(x, Float(0), Float(1)) * Float(n - 1);
+    int i0 = std::min(int(t), n - 2);
+    return {i0, t - Float(i0)};
+  }
+  size_t index(int side, int e, int a, int m) const { return size_t(((side * m_ne + e) * m_na + a) * m_nmu + m); }
+  template <class At>
+  static Float lerp2(At&& at, Cell a, Cell e) {
+    Float lo = at(e.i, a.i) * (1 - a.f) + at(e.i, a.i + 1) * a.f;
+    Float hi = at(e.i + 1, a.i) * (1 - a.f) + at(e.i + 1, a.i + 1) * a.f;
+    return lo * (1 - e.f) + hi * e.f;
+  }
+
+  int m_nmu, m_na, m_ne;
+  std::vector<Float> m_E, m_avg, m_favg;
+  double m_seconds = 0;
+};
+
+// The compensation is left off where the cosine-weighted mean loss 1 - E_avg
+// is below this, on either side (alpha below ~0.02): the loss is then
+// confined to mu within ~alpha of grazing, where the table's first mu
+// interval spreads it, and the lobe's peak (1 - E(0)) / (1 - E_avg) would
+// make sample weights of hundreds for a gain under 0.1%.
+inline constexpr Float ms_min_average_loss = 1e-3f;
+
+// Kulla and Conty's compensation of one rough dielectric interface: its
+// constants, made from the tables (DielectricAlbedoTable holds E, E_avg and
+// F_avg) whenever DielectricBxDF needs them. With L_s(mu) = 1 -
+// E_s(mu) the energy side s loses at mu, the added lobe is, in importance
+// transport (the radiance-transport transmission is divided by eta'^2, as
+// the single-scattering one),
+//   same side s:        (1 - t_s) L_s(mu_o) L_s(mu_i) / (pi (1 - E_avg,s)),
+//   from s to side s':   t_s      L_s(mu_o) L_s'(mu_i) / (pi (1 - E_avg,s')),
+// whose albedo from side s is L_s(mu_o) (the cosine-weighted integral of
+// L_s' is pi (1 - E_avg,s')): each side's sum is 1 for the tabulated E.
+// t_s is the transmitted share of the lost energy. Reciprocity, f_imp(0 ->
+// 1) = eta^2 f_imp(1 -> 0) (side 0 sees eta >= 1), fixes their ratio:
+//   t_0 (1 - E_avg,0) = eta^2 t_1 (1 - E_avg,1).
+// t_0 = 1 - F_avg(eta), the cosine-weighted mean transmittance entering
+// the denser side (8-point Gauss–Legendre at the table's eta grid,
+// interpolated; so that without a difference between the two sides'
+// losses, t_1 = 1 - F_avg(1 / eta), the identity of a smooth interface);
+// if that made t_1 > 1, t_1 = 1 and t_0 follows from the ratio.
+struct DielectricMultipleScattering {
+  DielectricAlbedoTable::Cell a, e;
+  Float t[2] = {0, 0}, inv_norm[2] = {0, 0};  // inv_norm = 1 / (pi (1 - E_avg))
+  bool active = false;
+  bool swap = false;  // eta < 1: the outside (+z) is side 1
+
+  static DielectricMultipleScattering make(const TrowbridgeReitz& d, Float eta) {
+    DielectricMultipleScattering ms;
+    if (d.effectively_smooth() || eta == 1 || !(eta > 0) || !std::isfinite(eta)) return ms;
+    ms.swap = eta < 1;
+    Float e = ms.swap ? 1 / eta : eta;
+    const auto& table = DielectricAlbedoTable::get();
+    ms.a = table.alpha_cell(std::min(Float(1), std::sqrt(d.alpha_x() * d.alpha_y())));
+    ms.e = table.eta_cell(e);
+    Float e_avg[2];
+    for (int s = 0; s < 2; ++s) {
+      e_avg[s] = table.E_avg(s, ms.a, ms.e);
+      if (!(1 - e_avg[s] >= ms_min_average_loss)) return ms;
+      ms.inv_norm[s] = inv_pi / (1 - e_avg[s]);
+    }
+    double f_avg = table.F_avg(ms.e);
+    double ratio = double(1 - e_avg[0]) / (double(e) * e * (1 - e_avg[1]));  // t_1 / t_0
+    double t0 = std::clamp(1 - f_avg, 0.0, 1.0), t1 = t0 * ratio;
+    if (t1 > 1) {
+      t1 = 1;
+      t0 = 1 / ratio;
+    }
+    ms.t[0] = Float(t0);
+    ms.t[1] = Float(t1);
+    ms.active = true;
+    return ms;
+  }
+  int side(const Vector3f& w) const { return (w.z > 0) != swap ? 0 : 1; }
+  Float loss(int s, Float mu) const {
+    return std::max(Float(0), 1 - DielectricAlbedoTable::get().E(s, std::min(mu, Float(1)), a, e));
+  }
+  // The lobe at (wo, wi) in importance transport (neither may be grazing).
+  Float eval(const Vector3f& wo, const Vector3f& wi) const {
+    int so = side(wo), si = side(wi);
+    Float k = so == si ? 1 - t[so] : t[so];
+    return k * loss(so, abs_cos_theta(wo)) * loss(si, abs_cos_theta(wi)) * inv_norm[si];
+  }
+  // The probability of sampling the lobe from wo: its share of the albedo,
+  // L(mu_o), at most 0.9.
+  Float probability(const Vector3f& wo) const {
+    return active ? std::min(Float(0.9), loss(side(wo), abs_cos_theta(wo))) : Float(0);
+  }
+  // The share of the lobe's samples that stay on wo's side.
+  Float reflect_share(const Vector3f& wo) const { return 1 - t[side(wo)]; }
+};
+
 template <class S>
 class DielectricBxDF {
  public:
@@ -114,13 +351,33 @@ class DielectricBxDF {
   // eta = 1 (light passes straight through; no half vector exists).
   bool is_smooth() const { return m_eta == 1 || m_distrib.effectively_smooth(); }
 
+  // Adds Kulla and Conty's compensation lobe (DielectricMultipleScattering):
+  // a rough interface then scatters, reflected plus transmitted, the energy a
+  // single microfacet event loses, from either side. Smooth interfaces (and
+  // eta = 1) are unchanged.
+  // Only a flag is kept: the lobe's constants are recomputed from the tables
+  // where they are needed (a few lookups), so that the BxDF, and every BSDF
+  // variant holding one, stays as small as without the switch.
+  void enable_multiple_scattering() { m_ms = DielectricMultipleScattering::make(m_distrib, m_eta).active; }
+  bool multiple_scattering() const { return m_ms; }
+
   S eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (is_smooth()) return S{};
+    if (m_ms) {
+      Float f;
+      eval_pdf_ms(ms_state(), wo, wi, mode, &f, nullptr);
+      return S(f);
+    }
     auto r = rough(wo, wi, mode);
     return r ? S(r->f) : S{};
   }
   Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (is_smooth()) return 0;
+    if (m_ms) {
+      Float p;
+      eval_pdf_ms(ms_state(), wo, wi, mode, nullptr, &p);
+      return p;
+    }
     auto r = rough(wo, wi, mode);
     return r ? r->pdf : 0;
   }
@@ -131,6 +388,7 @@ class DielectricBxDF {
   std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
     if (wo.z == 0) return std::nullopt;
     if (is_smooth()) return sample_smooth(wo, uc, mode);
+    if (m_ms) return sample_ms(wo, uc, u, mode);
     Vector3f wm = m_distrib.sample_wm(wo, u);
     Float R = fresnel_dielectric(dot(wo, wm), m_eta);
     Vector3f wi;
@@ -168,6 +426,62 @@ class DielectricBxDF {
     Float ft = T / abs_cos_theta(r->wt);
     if (mode == TransportMode::radiance) ft /= sqr(r->etap);
     return BSDFSample<S>{S(ft), r->wt, T, BxDFFlags::specular_transmission, r->etap};
+  }
+
+  DielectricMultipleScattering ms_state() const { return DielectricMultipleScattering::make(m_distrib, m_eta); }
+  // With the compensation: f (if not null), the single-scattering lobes
+  // plus the added one in the given transport mode, and pdf (if not null),
+  // the mixture's density; one evaluation of the rough lobes serves both.
+  void eval_pdf_ms(const DielectricMultipleScattering& ms, const Vector3f& wo, const Vector3f& wi,
+                   TransportMode mode, Float* f, Float* pdf) const {
+    auto r = rough(wo, wi, mode);
+    if (f) *f = r ? r->f : 0;
+    if (pdf) *pdf = 0;
+    if (wo.z == 0 || wi.z == 0) return;
+    if (f) {
+      Float c = ms.eval(wo, wi);
+      if (mode == TransportMode::radiance && !same_hemisphere(wo, wi)) c /= sqr(wo.z > 0 ? m_eta : 1 / m_eta);
+      *f += c;
+    }
+    if (pdf) {
+      Float pm = ms.probability(wo), share = ms.reflect_share(wo);
+      *pdf = (1 - pm) * (r ? r->pdf : 0) +
+             pm * (same_hemisphere(wo, wi) ? share : 1 - share) * abs_cos_theta(wi) * inv_pi;
+    }
+  }
+  // With the compensation: uc < its probability picks it (then uc, rescaled,
+  // picks the side and a cosine-weighted direction there); otherwise uc,
+  // rescaled, drives the single-scattering sampler. Either way the sample
+  // carries eval() and pdf() of the whole mixture at its direction.
+  std::optional<BSDFSample<S>> sample_ms(const Vector3f& wo, Float uc, Point2f u, TransportMode mode) const {
+    const DielectricMultipleScattering ms = ms_state();
+    Float pm = ms.probability(wo);
+    Vector3f wi;
+    if (uc < pm) {
+      Float share = ms.reflect_share(wo);
+      wi = sample_cosine_hemisphere(u);
+      bool stay = uc < pm * share;
+      if ((wo.z > 0) != stay) wi.z = -wi.z;
+    } else {
+      Float u2 = std::min((uc - pm) / (1 - pm), one_minus_epsilon);
+      Vector3f wm = m_distrib.sample_wm(wo, u);
+      if (u2 < fresnel_dielectric(dot(wo, wm), m_eta)) {
+        wi = reflect(wo, wm);
+        if (!same_hemisphere(wo, wi)) return std::nullopt;
+      } else {
+        auto t = refract_dielectric(wo, wm, m_eta);
+        if (!t || t->wt.z * wo.z >= 0) return std::nullopt;
+        wi = t->wt;
+      }
+    }
+    if (wi.z == 0) return std::nullopt;
+    Float fv, p;
+    eval_pdf_ms(ms, wo, wi, mode, &fv, &p);
+    S f(fv);
+    if (!(p > 0) || !(f[0] > 0)) return std::nullopt;
+    bool refl = same_hemisphere(wo, wi);
+    return BSDFSample<S>{f, wi, p, refl ? BxDFFlags::glossy_reflection : BxDFFlags::glossy_transmission,
+                         refl ? Float(1) : (wo.z > 0 ? m_eta : 1 / m_eta)};
   }
 
   struct RoughValue {
@@ -214,6 +528,7 @@ class DielectricBxDF {
 
   Float m_eta = 1.5f;
   TrowbridgeReitz m_distrib;
+  bool m_ms = false;  // enable_multiple_scattering()
 };
 
 // A dielectric material: an IOR law, a name (for error messages) and a
@@ -224,6 +539,9 @@ struct DielectricMaterial {
   std::string name = "dielectric";
   MicrofacetRoughness roughness{};
   VolumeAbsorption volume{};  // absorption inside (closed meshes), none by default
+  // Kulla-Conty energy compensation of a rough interface (dielectric.hpp,
+  // DielectricMultipleScattering); off by default.
+  bool multiple_scattering = false;
 
   void validate() const {
     ior.validate(name);
@@ -249,7 +567,9 @@ struct bxdf_traits<DielectricBxDF<S>> {
   // hero; otherwise eta at the d line (587.56 nm). See path_eta().
   template <class W>
   static DielectricBxDF<S> make(const DielectricMaterial& m, const SurfaceInteraction&, W& lambda) {
-    return DielectricBxDF<S>(path_eta(m.ior, lambda), TrowbridgeReitz(m.roughness));
+    DielectricBxDF<S> b(path_eta(m.ior, lambda), TrowbridgeReitz(m.roughness));
+    if (m.multiple_scattering) b.enable_multiple_scattering();
+    return b;
   }
   // Scene::build: eta must be finite and > 1 over 360-830 nm, the roughness
   // finite and >= 0. `where` (e.g. "scene: material 3") prefixes the

@@ -74,6 +74,7 @@
 #include "prism/bxdfs/bxdf.hpp"
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
+#include "prism/bxdfs/ms_compensation.hpp"
 #include "prism/bxdfs/volume.hpp"
 #include "prism/error.hpp"
 #include "prism/geometry/interaction.hpp"
@@ -143,6 +144,62 @@ class MetalRoughBxDF {
     m_layer_k = (1 - m_metallic) - m_glass_k;
   }
   bool is_refractive() const { return m_glass_k > 0; }
+
+  // Kulla and Conty's energy compensation of the rough lobes (off unless
+  // called; MetalRoughMaterial::multiple_scattering). Call after
+  // make_refractive(). With E(mu), E_avg the single-scattering albedo of the
+  // microfacet lobe for F = 1 (MicrofacetAlbedoTable, as the conductor) and
+  // white(mu_o, mu_i) = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)):
+  // - the metal gains metallic F_ms(F_avg) white, F_avg = F0 + (1 - F0) / 21
+  //   per channel (Schlick's F with F0 = base colour: 2 int F mu dmu);
+  // - the dielectric layer gains layer_k F_ms(w (F0 + (1 - F0) / 21)) white;
+  // - the diffuse base is weighted by what the compensated layer (of F0max)
+  //   does not reflect, (1 - E_l(mu_o)) (1 - E_l(mu_i)) / (1 - E_l,avg) in
+  //   place of B(mu_o) B(mu_i), with E_l(mu) = w (F0max A(mu) + E(mu) -
+  //   A(mu)) + F_ms,max (1 - E(mu)) (A: MicrofacetAlbedoTable's Schlick part),
+  //   so a white base under a white layer has albedo 1;
+  // - a glass lobe gets DielectricBxDF's compensation.
+  // Left off where 1 - E_avg < ms_min_average_loss (alpha below ~0.007, a
+  // mean loss under 0.1%). The thin transmission lobe is not compensated.
+  // The added lobes are sampled with the diffuse lobe's cosine-weighted
+  // directions, their albedo added to its selection weight. Smooth surfaces
+  // are unchanged.
+  // The compensation's constants, made from the tables where they are
+  // needed (only a flag is kept, so the BxDF stays as small as without it).
+  struct MS {
+    S lobe{};  // metallic F_ms(metal) + layer_k F_ms(layer), per channel
+    Float alpha = 0, inv_norm = 0;  // inv_norm = 1 / (pi (1 - E_avg))
+    Float fms_max = 0;              // F_ms of the F0max layer
+    Float base_norm = 0;            // 1 / (1 - E_l,avg); 0 when the layer reflects everything
+    bool active = false;
+  };
+  MS ms_state() const {
+    MS ms;
+    if (is_smooth()) return ms;
+    const auto& t = MicrofacetAlbedoTable::get();
+    ms.alpha = std::min(Float(1), std::sqrt(m_distrib.alpha_x() * m_distrib.alpha_y()));
+    const Float e_avg = t.E_avg(ms.alpha);
+    if (!(1 - e_avg >= ms_min_average_loss)) return ms;  // alpha below ~0.007 (dielectric.hpp)
+    ms.inv_norm = inv_pi / (1 - e_avg);
+    using MSS = MultipleScattering<S>;
+    for (int c = 0; c < S::size; ++c) {
+      Float k = 0;
+      if (m_metallic > 0) k += m_metallic * MSS::fms(m_base[c] + (1 - m_base[c]) / 21, e_avg);
+      if (m_w > 0 && m_layer_k > 0) k += m_layer_k * MSS::fms(m_w * (m_f0[c] + (1 - m_f0[c]) / 21), e_avg);
+      ms.lobe[c] = k;
+    }
+    ms.fms_max = m_w > 0 ? MSS::fms(m_w * (m_f0_max + (1 - m_f0_max) / 21), e_avg) : 0;
+    Float a_avg = t.A_avg(ms.alpha);
+    Float layer_avg = m_w * (m_f0_max * a_avg + (e_avg - a_avg)) + ms.fms_max * (1 - e_avg);
+    ms.base_norm = 1 - layer_avg > Float(1e-6) ? 1 / (1 - layer_avg) : 0;
+    ms.active = true;
+    return ms;
+  }
+  void enable_multiple_scattering() {
+    if (m_glass_k > 0) m_glass.enable_multiple_scattering();
+    m_ms = ms_state().active;
+  }
+  bool multiple_scattering() const { return m_ms || m_glass.multiple_scattering(); }
   const DielectricBxDF<S>& glass() const { return m_glass; }
 
   bool is_smooth() const { return m_distrib.effectively_smooth(); }
@@ -224,6 +281,7 @@ class MetalRoughBxDF {
     if (m_metallic > 0 || (m_w > 0 && m_layer_k > 0))
       f = f | (smooth ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
     if (m_glass_k > 0) f = f | m_glass.flags();
+    if (m_ms) f = f | BxDFFlags::diffuse_reflection;  // the compensation's cosine-weighted samples
     // The base receives nothing when the layer reflects everything (F0 = 1, w = 1).
     const bool base_lit = m_base_avg > 0 && (m_w < 1 || m_f0_max < 1);
     if (base_lit && m_diffuse_k > 0) f = f | BxDFFlags::diffuse_reflection;
@@ -280,7 +338,13 @@ class MetalRoughBxDF {
       Float m = m_metallic > 0 ? 1 - (1 - m_base_avg) * sc : 0;
       w.reflection = m_layer_k * d + m_metallic * m;
     }
-    w.diffuse = m_diffuse_k * m_base_avg * base_weight(mu);
+    if (m_ms) {
+      const MS ms = ms_state();
+      Float loss = 1 - MicrofacetAlbedoTable::get().E(mu, ms.alpha);
+      w.diffuse = m_diffuse_k * m_base_avg * (1 - layer_albedo(ms, mu)) + ms.lobe.average() * loss;
+    } else {
+      w.diffuse = m_diffuse_k * m_base_avg * base_weight(mu);
+    }
     w.transmission = m_trans_k * m_base_avg * ((1 - m_w) + m_w * (1 - m_f0_max) * sc);
     return w;
   }
@@ -304,6 +368,13 @@ class MetalRoughBxDF {
   // What the Fresnel layer leaves to the base: 1 - w Fmax(c)
   // = (1 - w) + w (1 - F0max)(1 - s(c)), without cancellation.
   Float base_weight(Float c) const { return (1 - m_w) + m_w * (1 - m_f0_max) * detail::schlick_complement(c); }
+  // With the compensation: the directional albedo E_l(mu) of the compensated
+  // layer of F0max (enable_multiple_scattering), at most 1.
+  Float layer_albedo(const MS& ms, Float mu) const {
+    const auto& t = MicrofacetAlbedoTable::get();
+    Float e = t.E(mu, ms.alpha), a = t.A(mu, ms.alpha);
+    return std::min(Float(1), m_w * (m_f0_max * a + (e - a)) + ms.fms_max * (1 - e));
+  }
 
   const TrowbridgeReitz& distribution() const { return m_distrib; }
   const S& base_color() const { return m_base; }
@@ -347,7 +418,17 @@ class MetalRoughBxDF {
     if (pdf) *pdf = 0;
     Microfacet mf;
     if (wi.z > 0) {
-      if (f && m_diffuse_k > 0) *f = m_base * (m_diffuse_k * inv_pi * base_weight(wo.z) * base_weight(wi.z));
+      if (f && m_ms) {
+        const MS ms = ms_state();
+        const auto& t = MicrofacetAlbedoTable::get();
+        if (m_diffuse_k > 0)
+          *f = m_base * (m_diffuse_k * inv_pi * (1 - layer_albedo(ms, wo.z)) * (1 - layer_albedo(ms, wi.z)) *
+                         ms.base_norm);
+        Float lo = 1 - t.E(wo.z, ms.alpha), li = 1 - t.E(wi.z, ms.alpha);
+        *f += ms.lobe * (std::max(Float(0), lo) * std::max(Float(0), li) * ms.inv_norm);
+      } else if (f && m_diffuse_k > 0) {
+        *f = m_base * (m_diffuse_k * inv_pi * base_weight(wo.z) * base_weight(wi.z));
+      }
       if (pdf) *pdf = p.diffuse * pdf_cosine_hemisphere(wi.z);
       if (is_smooth() || !((m_w > 0 && m_layer_k > 0) || m_metallic > 0) || !microfacet(wo, wi, mf)) return;
       if (f) *f += specular_fresnel(mf.c) * mf.dg;
@@ -417,6 +498,7 @@ class MetalRoughBxDF {
   Float m_f0_max = 0, m_w = 0, m_metallic = 0, m_diffuse_k = 0, m_trans_k = 0, m_layer_k = 1, m_base_avg = 0;
   DielectricBxDF<S> m_glass;
   Float m_glass_k = 0;  // (1 - metallic) T for a refractive volume, else 0
+  bool m_ms = false;  // enable_multiple_scattering()
 };
 
 // The glTF metallic-roughness material with KHR_materials_ior,
@@ -469,6 +551,9 @@ struct MetalRoughMaterial {
   // hit's colour is white where a mesh has none.
   std::shared_ptr<const MetalRoughTextures> textures;
   std::string name = "metal_rough";
+  // Kulla-Conty energy compensation of the rough lobes
+  // (MetalRoughBxDF::enable_multiple_scattering); off by default.
+  bool multiple_scattering = false;
 
   // A refracting volume: thickness > 0 with some transmission, and an ior
   // >= 1 (ior = 0, "F0 = 1", reflects everything and stays thin).
@@ -588,6 +673,7 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     MetalRoughBxDF<S> b(TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)), base, f0, f0_max,
                         p.specular, p.metallic, p.transmission);
     if (m.is_volume() && p.transmission > 0 && p.metallic < 1) b.make_refractive(path_eta(m.volume_ior(), lambda));
+    if (m.multiple_scattering) b.enable_multiple_scattering();
     return b;
   }
 

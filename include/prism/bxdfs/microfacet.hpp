@@ -188,6 +188,27 @@ class TrowbridgeReitz {
   Float m_ax = 0, m_ay = 0;
 };
 
+// The cosine-weighted hemispherical average 2 int_0^1 f(mu) mu dmu by
+// 8-point Gauss–Legendre on [0, 1], for a smooth f (a Fresnel reflectance
+// seen from the less dense side) returning a Float or a spectrum: the F_avg
+// of the multiple-scattering compensations (ms_compensation.hpp,
+// dielectric.hpp).
+template <class F>
+auto cosine_weighted_average(F&& f) {
+  static constexpr double x[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
+                                  -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
+                                  0.7966664774136267,  0.9602898564975363};
+  static constexpr double w[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
+                                  0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
+                                  0.2223810344533745, 0.1012285362903763};
+  decltype(f(Float(0)) * Float(1)) sum{};
+  for (int i = 0; i < 8; ++i) {
+    Float mu = Float((x[i] + 1) / 2);
+    sum = sum + f(mu) * Float(w[i] * mu);  // 2 * (w / 2) * f mu
+  }
+  return sum;
+}
+
 // Mirror reflection of wo about the unit normal n (either side).
 inline Vector3f reflect(const Vector3f& wo, const Vector3f& n) { return -wo + n * (2 * dot(wo, n)); }
 

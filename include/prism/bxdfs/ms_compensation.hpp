@@ -30,17 +30,13 @@ class MicrofacetAlbedoTable {
   static constexpr int n = 32;
 
   // The single-scattering albedo E(mu, alpha) for F = 1, bilinear in the grid.
-  Float E(Float mu, Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    auto [m0, m1, fm] = cell(mu);
-    Float e0 = m_E[a0][m0] * (1 - fm) + m_E[a0][m1] * fm;
-    Float e1 = m_E[a1][m0] * (1 - fm) + m_E[a1][m1] * fm;
-    return e0 * (1 - fa) + e1 * fa;
-  }
-  Float E_avg(Float alpha) const {
-    auto [a0, a1, fa] = cell(alpha);
-    return m_avg[a0] * (1 - fa) + m_avg[a1] * fa;
-  }
+  Float E(Float mu, Float alpha) const { return bilinear(m_E, mu, alpha); }
+  Float E_avg(Float alpha) const { return linear(m_avg, alpha); }
+  // The part of E weighted by 1 - s(c), Schlick's s(c) = (1 - c)^5 at
+  // c = wo.wm: a Schlick Fresnel F = F0 (1 - s) + F90 s gives the albedo
+  // F0 A + F90 (E - A) (the metal-rough material's layer, metal_rough.hpp).
+  Float A(Float mu, Float alpha) const { return bilinear(m_A, mu, alpha); }
+  Float A_avg(Float alpha) const { return linear(m_A_avg, alpha); }
 
   static const MicrofacetAlbedoTable& get() {
     static const MicrofacetAlbedoTable table;  // C++ guarantees one thread builds it
@@ -60,27 +56,50 @@ class MicrofacetAlbedoTable {
         // the horizon, at the far tail of the visible normals (u within
         // ~alpha^2 of 1): the midpoints of a quintic warp u = t^3 (10 - 15 t
         // + 6 t^2) reach within 5e-6 of either end, weighted by du/dt.
-        double sum = 0;
+        double sum = 0, sum_a = 0;
         for (int i = 0; i < strata; ++i)
           for (int j = 0; j < strata; ++j) {
             auto [ux, wx] = warp((double(i) + 0.5) / strata);
             auto [uy, wy] = warp((double(j) + 0.5) / strata);
             Vector3f wm = d.sample_wm(wo, {Float(ux), Float(uy)});
             Vector3f wi = reflect(wo, wm);
-            if (wi.z > 0) sum += wx * wy * double(d.G(wo, wi)) / double(d.G1(wo));
+            if (wi.z > 0) {
+              double v = wx * wy * double(d.G(wo, wi)) / double(d.G1(wo));
+              double c = 1 - std::clamp(double(dot(wo, wm)), 0.0, 1.0), c2 = c * c;
+              sum += v;
+              sum_a += v * (1 - c2 * c2 * c);
+            }
           }
         m_E[a][m] = Float(std::clamp(sum / (strata * strata), 0.0, 1.0));
+        m_A[a][m] = std::min(m_E[a][m], Float(std::clamp(sum_a / (strata * strata), 0.0, 1.0)));
       }
-      // E_avg = 2 int_0^1 E(mu) mu dmu by the trapezoid rule on the grid.
-      double avg = 0;
-      for (int m = 0; m + 1 < n; ++m) {
-        double mu0 = grid(m), mu1 = grid(m + 1);
-        avg += (double(m_E[a][m]) * mu0 + double(m_E[a][m + 1]) * mu1) / 2 * (mu1 - mu0);
-      }
-      m_avg[a] = Float(std::min(1.0, 2 * avg));
+      // E_avg = 2 int_0^1 E(mu) mu dmu, exactly for the piecewise-linear E
+      // the lookups interpolate (so the compensated albedo is 1 for the
+      // tabulated E): h/6 (E0 (2 mu0 + mu1) + E1 (mu0 + 2 mu1)) per interval.
+      m_avg[a] = average(m_E[a]);
+      m_A_avg[a] = std::min(m_avg[a], average(m_A[a]));
     }
   }
+  static Float average(const std::array<Float, n>& e) {
+    double avg = 0;
+    for (int m = 0; m + 1 < n; ++m) {
+      double mu0 = grid(m), mu1 = grid(m + 1);
+      avg += (mu1 - mu0) / 6 * (double(e[m]) * (2 * mu0 + mu1) + double(e[m + 1]) * (mu0 + 2 * mu1));
+    }
+    return Float(std::min(1.0, 2 * avg));
+  }
   static Float grid(int i) { return Float(i) / Float(n - 1); }
+  static Float bilinear(const std::array<std::array<Float, n>, n>& t, Float mu, Float alpha) {
+    auto [a0, a1, fa] = cell(alpha);
+    auto [m0, m1, fm] = cell(mu);
+    Float e0 = t[a0][m0] * (1 - fm) + t[a0][m1] * fm;
+    Float e1 = t[a1][m0] * (1 - fm) + t[a1][m1] * fm;
+    return e0 * (1 - fa) + e1 * fa;
+  }
+  static Float linear(const std::array<Float, n>& t, Float alpha) {
+    auto [a0, a1, fa] = cell(alpha);
+    return t[a0] * (1 - fa) + t[a1] * fa;
+  }
   // The quintic warp of [0, 1] and its derivative.
   static std::pair<double, double> warp(double t) {
     return {t * t * t * (10 - 15 * t + 6 * t * t), 30 * t * t * (1 - t) * (1 - t)};
@@ -95,8 +114,8 @@ class MicrofacetAlbedoTable {
     return {i0, i0 + 1, t - Float(i0)};
   }
 
-  std::array<std::array<Float, n>, n> m_E{};
-  std::array<Float, n> m_avg{};
+  std::array<std::array<Float, n>, n> m_E{}, m_A{};
+  std::array<Float, n> m_avg{}, m_A_avg{};
 };
 
 // The compensation lobe of one BxDF instance: the white lobe's factors and
@@ -108,7 +127,8 @@ struct MultipleScattering {
   Float e_avg = 1;   // E_avg(alpha)
   bool active = false;
 
-  // F_avg = 2 int F(mu) mu dmu by 8-point Gauss–Legendre on [0, 1].
+  // F_avg = 2 int F(mu) mu dmu by 8-point Gauss–Legendre on [0, 1]
+  // (cosine_weighted_average).
   template <class Fresnel>
   static MultipleScattering make(const TrowbridgeReitz& d, Fresnel&& fresnel) {
     MultipleScattering ms;
@@ -116,24 +136,28 @@ struct MultipleScattering {
     ms.alpha = std::min(Float(1), std::sqrt(d.alpha_x() * d.alpha_y()));
     ms.e_avg = MicrofacetAlbedoTable::get().E_avg(ms.alpha);
     if (!(ms.e_avg < 1)) return ms;
-    static constexpr double x[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
-                                    -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
-                                    0.7966664774136267,  0.9602898564975363};
-    static constexpr double w[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
-                                    0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
-                                    0.2223810344533745, 0.1012285362903763};
-    S f_avg{};
-    for (int i = 0; i < 8; ++i) {
-      Float mu = Float((x[i] + 1) / 2);
-      f_avg = f_avg + fresnel(mu) * Float(w[i] * mu);  // 2 * (w / 2) * F mu
-    }
-    Float e = ms.e_avg;
-    for (int c = 0; c < S::size; ++c) {
-      Float fa = std::clamp(f_avg[c], Float(0), Float(1));
-      ms.scale[c] = fa * fa * e / (1 - fa * (1 - e));
-    }
-    ms.active = true;
+    ms.set_scale(cosine_weighted_average(fresnel));
     return ms;
+  }
+  // The same with F_avg given per channel (a Schlick Fresnel's closed form
+  // F0 + (F90 - F0) / 21, say).
+  static MultipleScattering from_f_avg(const TrowbridgeReitz& d, const S& f_avg) {
+    MultipleScattering ms;
+    if (d.effectively_smooth()) return ms;
+    ms.alpha = std::min(Float(1), std::sqrt(d.alpha_x() * d.alpha_y()));
+    ms.e_avg = MicrofacetAlbedoTable::get().E_avg(ms.alpha);
+    if (!(ms.e_avg < 1)) return ms;
+    ms.set_scale(f_avg);
+    return ms;
+  }
+  // F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) for one F_avg in [0, 1].
+  static Float fms(Float f_avg, Float e_avg) {
+    Float fa = std::clamp(f_avg, Float(0), Float(1));
+    return fa * fa * e_avg / (1 - fa * (1 - e_avg));
+  }
+  void set_scale(const S& f_avg) {
+    for (int c = 0; c < S::size; ++c) scale[c] = fms(f_avg[c], e_avg);
+    active = true;
   }
   // The white lobe (without scale) at cosines mu_o, mu_i.
   Float white(Float mu_o, Float mu_i) const {
