@@ -160,13 +160,20 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
   V e1 = dop(x[2], y[0], y[2], x[0]);
   V e2 = dop(x[0], y[1], y[0], x[1]);
   const V z0 = zero();
-  int zero_edge = mask(bor(bor(eq(e0, z0), eq(e1, z0)), eq(e2, z0)));
   V any_neg = bor(bor(lt(e0, z0), lt(e1, z0)), lt(e2, z0));
   V any_pos = bor(bor(gt(e0, z0), gt(e1, z0)), gt(e2, z0));
-  int outside = mask(band(any_neg, any_pos));
-  // Lanes with a zero edge function go to the scalar test whatever follows.
-  int live = lanes & ~outside & ~zero_edge;
-  *undecided = lanes & zero_edge;
+  int live = lanes & ~mask(band(any_neg, any_pos));
+  // Edge functions of both signs reject a lane whatever a zero one would be
+  // in double: the signs of difference_of_products are exact, so the scalar
+  // test's re-evaluation in double keeps them. Of the other lanes, those with
+  // a zero edge function go to the scalar test whatever follows.
+  if (live == 0) {
+    *undecided = 0;
+    return 0;
+  }
+  int zero_edge = mask(bor(bor(eq(e0, z0), eq(e1, z0)), eq(e2, z0)));
+  *undecided = live & zero_edge;
+  live &= ~zero_edge;
   if (live == 0) return 0;
 
   V det = add(add(e0, e1), e2);
