@@ -32,9 +32,10 @@
 // independent seeds no method uses (their difference estimates the
 // reference's own relMSE, the noise floor every measured relMSE includes),
 // stored as bench/convergence/cache/<scene>_<model>_<W>x<H>_spp<N>_seed<S>.exr
-// (the spp and first seed in the name; a sidecar .txt repeats them with the
-// render time and the noise floor; a .png preview next to them) and reused
-// when present. Spectral methods are measured against the spectral reference,
+// (the spp and first seed in the name; the EXR header holds prism.* string
+// attributes: scene, size, spp, both seeds, integrator, sampler, render time
+// and the noise floor, repeated in a sidecar .txt for reading by eye; a .png
+// preview next to them) and reused when its header matches the run. Spectral methods are measured against the spectral reference,
 // RGB ones against the RGB reference.
 //
 // Each method renders at 1, 2, 4, ..., 256 spp, each budget with
@@ -81,6 +82,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -252,14 +254,21 @@ struct Harness {
     const std::string stem = cache_dir + "/" + key + "_" + std::to_string(W) + "x" + std::to_string(H) + "_spp" +
                              std::to_string(ref_spp) + "_seed" + std::to_string(ref_seed);
     Reference r;
-    if (std::filesystem::exists(stem + ".exr") && std::filesystem::exists(stem + ".txt")) {
+    // Reused when the EXR's header says it was made as this run would make
+    // it (size, spp, seeds); older caches keep that in the sidecar .txt only.
+    if (std::filesystem::exists(stem + ".exr")) {
       Image img = read_exr(stem + ".exr");
-      std::ifstream side(stem + ".txt");
-      std::string word;
-      bool have_floor = false;
-      while (side >> word)
-        if (word == "floor_relmse") have_floor = bool(side >> r.floor);
-      if (img.width == W && img.height == H && have_floor) {
+      std::map<std::string, std::string> meta = read_exr_attributes(stem + ".exr");
+      if (meta.empty() && std::filesystem::exists(stem + ".txt")) {
+        std::ifstream side(stem + ".txt");
+        std::string word, value;
+        while (side >> word && std::getline(side >> std::ws, value)) meta["prism." + word] = value;
+      }
+      const std::string seeds = std::to_string(ref_seed) + " " + std::to_string(ref_seed + 1);
+      bool matches = img.width == W && img.height == H && meta["prism.spp"] == std::to_string(2 * std::max(1, ref_spp / 2)) &&
+                     meta["prism.seeds"] == seeds && meta.count("prism.floor_relmse") == 1;
+      if (matches) {
+        r.floor = std::stod(meta["prism.floor_relmse"]);
         std::printf("%s: reference from %s.exr (noise floor relMSE %.3g)\n", key.c_str(), stem.c_str(), r.floor);
         r.px = std::move(img.rgb);
         return r;
@@ -275,12 +284,24 @@ struct Harness {
     for (size_t i = 0; i < a.size(); ++i) r.px[i] = 0.5f * (a[i] + b[i]);
     r.floor = rel_mse_between(a, b, r.px) / 4;
     std::filesystem::create_directories(cache_dir);
-    write_exr(stem + ".exr", Image{W, H, r.px});
+    // How the reference was made, in its EXR header (prism.* string
+    // attributes, read_exr_attributes) and, for reading by eye, a sidecar.
+    std::ostringstream floor_text;
+    floor_text.precision(9);
+    floor_text << r.floor;
+    ExrAttributes meta = {{"prism.scene", key},
+                          {"prism.width", std::to_string(W)},
+                          {"prism.height", std::to_string(H)},
+                          {"prism.spp", std::to_string(2 * half)},
+                          {"prism.seeds", std::to_string(ref_seed) + " " + std::to_string(ref_seed + 1)},
+                          {"prism.integrator", "path"},
+                          {"prism.sampler", "independent"},
+                          {"prism.seconds", std::to_string(sec_a + sec_b)},
+                          {"prism.floor_relmse", floor_text.str()}};
+    write_exr(stem + ".exr", Image{W, H, r.px}, meta);
     write_png(stem + ".png", Image{W, H, r.px});
     std::ofstream side(stem + ".txt");
-    side << "scene " << key << "\nwidth " << W << "\nheight " << H << "\nspp " << 2 * half << "\nseeds " << ref_seed
-         << " " << ref_seed + 1 << "\nintegrator path\nsampler independent\nseconds " << sec_a + sec_b
-         << "\nfloor_relmse " << r.floor << "\n";
+    for (const auto& [name, value] : meta) side << name.substr(6) << " " << value << "\n";
     std::printf("%s: reference in %.1f s, noise floor relMSE %.3g\n", key.c_str(), sec_a + sec_b, r.floor);
     return r;
   }

@@ -201,3 +201,29 @@ TEST_CASE("an EXR with AOVs holds the named layers and they read back", "[render
   }
   CHECK_THROWS_AS(write_exr_with_aovs(path, film, AovFilm(w + 1, h)), Error);
 }
+
+TEST_CASE("EXR string attributes are written to the header and read back", "[io][exr]") {
+  std::string path = std::string(PRISM_TEST_TMP_DIR) + "/attributes.exr";
+  Image img{3, 2, {}};
+  for (int i = 0; i < 18; ++i) img.rgb.push_back(Float(i) * 0.25f);
+  ExrAttributes attrs = {{"prism.spp", "8192"}, {"prism.seeds", "987654321 987654322"}, {"prism.empty", ""}};
+  write_exr(path, img, attrs);
+  Image back = read_exr(path);
+  REQUIRE(back.width == 3);
+  REQUIRE(back.height == 2);
+  CHECK(back.rgb == img.rgb);
+  auto got = read_exr_attributes(path);
+  for (const auto& [name, value] : attrs) {
+    INFO(name);
+    REQUIRE(got.count(name) == 1);
+    CHECK(got[name] == value);
+  }
+  // A plain EXR has none of them; a bad name and a non-EXR file are errors.
+  write_exr(path, img);
+  CHECK(read_exr_attributes(path).count("prism.spp") == 0);
+  CHECK_THROWS_AS(write_exr(path, img, ExrAttributes{{"", "x"}}), Error);
+  CHECK_THROWS_AS(write_exr(path, img, ExrAttributes{{std::string(300, 'a'), "x"}}), Error);
+  std::string png = std::string(PRISM_TEST_TMP_DIR) + "/attributes_not_exr.png";
+  write_png(png, img);
+  CHECK_THROWS_WITH(read_exr_attributes(png), Catch::Contains("attributes_not_exr.png"));
+}

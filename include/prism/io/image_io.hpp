@@ -17,8 +17,10 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
@@ -211,9 +213,16 @@ struct ExrChannel {
   std::vector<float> data;
 };
 
+// String attributes for an EXR header (name, value): how an image was made,
+// e.g. a reference's sample count and seeds. Written with OpenEXR's "string"
+// type, so any OpenEXR reader shows them.
+using ExrAttributes = std::vector<std::pair<std::string, std::string>>;
+
 // Writes channels as one 32-bit float EXR (zip compressed), in the name order
-// OpenEXR readers expect. Non-finite values are written as 0.
-inline void write_exr_channels(const std::string& path, int width, int height, std::vector<ExrChannel> channels) {
+// OpenEXR readers expect, with the given string attributes in its header.
+// Non-finite values are written as 0.
+inline void write_exr_channels(const std::string& path, int width, int height, std::vector<ExrChannel> channels,
+                               const ExrAttributes& attributes = {}) {
   if (width <= 0 || height <= 0 || channels.empty()) throw Error(path + ": an EXR needs a size and channels");
   for (const auto& c : channels)
     if (c.data.size() != size_t(width) * size_t(height))
@@ -242,6 +251,21 @@ inline void write_exr_channels(const std::string& path, int width, int height, s
   header.pixel_types = types.data();
   header.requested_pixel_types = types.data();
   header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+  std::vector<EXRAttribute> attrs(attributes.size());
+  for (size_t i = 0; i < attributes.size(); ++i) {
+    const auto& [name, value] = attributes[i];
+    if (name.empty() || name.size() > 255 || name.find('\0') != std::string::npos)
+      throw Error(path + ": EXR attribute name '" + name + "' must have 1 to 255 characters and no NUL");
+    if (value.size() > size_t(std::numeric_limits<int>::max()))
+      throw Error(path + ": EXR attribute '" + name + "' is too long");
+    std::memset(&attrs[i], 0, sizeof(EXRAttribute));
+    std::strncpy(attrs[i].name, name.c_str(), 255);
+    std::strncpy(attrs[i].type, "string", 255);
+    attrs[i].value = reinterpret_cast<unsigned char*>(const_cast<char*>(value.data()));
+    attrs[i].size = int(value.size());
+  }
+  header.num_custom_attributes = int(attrs.size());
+  header.custom_attributes = attrs.empty() ? nullptr : attrs.data();
   const char* err = nullptr;
   int rc = SaveEXRImageToFile(&image, &header, path.c_str(), &err);
   if (rc != TINYEXR_SUCCESS) {
@@ -249,6 +273,45 @@ inline void write_exr_channels(const std::string& path, int width, int height, s
     if (err) FreeEXRErrorMessage(err);
     throw Error(path + ": cannot write EXR: " + msg);
   }
+}
+
+// An RGB image as an EXR (R, G, B, 32-bit float) with string attributes in
+// its header; read_exr reads the image back, read_exr_attributes the rest.
+inline void write_exr(const std::string& path, const Image& img, const ExrAttributes& attributes) {
+  detail::check_image(img, path);
+  const size_t n = size_t(img.width) * size_t(img.height);
+  std::vector<ExrChannel> ch{{"R", {}}, {"G", {}}, {"B", {}}};
+  for (size_t k = 0; k < 3; ++k) {
+    ch[k].data.resize(n);
+    for (size_t i = 0; i < n; ++i) ch[k].data[i] = img.rgb[3 * i + k];
+  }
+  write_exr_channels(path, img.width, img.height, std::move(ch), attributes);
+}
+
+// The string attributes of an EXR's header (see write_exr_channels); other
+// attribute types are left out. Throws prism::Error naming the file if it
+// cannot be read as an EXR.
+inline std::map<std::string, std::string> read_exr_attributes(const std::string& path) {
+  EXRVersion version;
+  if (ParseEXRVersionFromFile(&version, path.c_str()) != TINYEXR_SUCCESS)
+    throw Error(path + ": not a readable EXR file");
+  if (version.multipart) throw Error(path + ": multi-part EXR files are not supported");
+  EXRHeader header;
+  InitEXRHeader(&header);
+  const char* err = nullptr;
+  if (ParseEXRHeaderFromFile(&header, &version, path.c_str(), &err) != TINYEXR_SUCCESS) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    throw Error(path + ": cannot read the EXR header: " + msg);
+  }
+  std::map<std::string, std::string> out;
+  for (int i = 0; i < header.num_custom_attributes; ++i) {
+    const EXRAttribute& a = header.custom_attributes[i];
+    if (std::string(a.type) == "string" && a.size >= 0)
+      out[a.name] = std::string(reinterpret_cast<const char*>(a.value), size_t(a.size));
+  }
+  FreeEXRHeader(&header);
+  return out;
 }
 
 // The film as an EXR with the layers a denoiser or compositor wants: R, G, B
