@@ -213,7 +213,7 @@ struct ExrChannel {
   std::vector<float> data;
 };
 
-// String attributes for an EXR header (name, value): how an image was made,
+// String attributes for an EXR header (name, non-empty value): how an image was made,
 // e.g. a reference's sample count and seeds. Written with OpenEXR's "string"
 // type, so any OpenEXR reader shows them.
 using ExrAttributes = std::vector<std::pair<std::string, std::string>>;
@@ -256,8 +256,9 @@ inline void write_exr_channels(const std::string& path, int width, int height, s
     const auto& [name, value] = attributes[i];
     if (name.empty() || name.size() > 255 || name.find('\0') != std::string::npos)
       throw Error(path + ": EXR attribute name '" + name + "' must have 1 to 255 characters and no NUL");
-    if (value.size() > size_t(std::numeric_limits<int>::max()))
-      throw Error(path + ": EXR attribute '" + name + "' is too long");
+    // (tinyexr does not read an empty attribute value back.)
+    if (value.empty() || value.size() > size_t(std::numeric_limits<int>::max()))
+      throw Error(path + ": EXR attribute '" + name + "' must have a value of 1 to 2^31 - 1 bytes");
     std::memset(&attrs[i], 0, sizeof(EXRAttribute));
     std::strncpy(attrs[i].name, name.c_str(), 255);
     std::strncpy(attrs[i].type, "string", 255);
