@@ -124,6 +124,7 @@ struct Job {
   int camera = -1;
   double time = 0;
   double shutter = 0;  // seconds the shutter stays open from `time` (motion blur)
+  bool multiple_scattering = false;  // glTF materials: energy compensation (GltfOptions)
   std::string env;
   float env_scale = 1;
   bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
@@ -361,6 +362,7 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   prism::GltfOptions gopt;
   gopt.time = job.time;
   gopt.shutter = job.shutter;
+  gopt.multiple_scattering = job.multiple_scattering;
   try {
     auto g = prism::load_gltf<S, Set>(path, gopt);
     // A material that RGB cannot render exactly (a dispersive volume): load
@@ -427,6 +429,8 @@ int run(int argc, char** argv) {
   app.add_option("--threads", job.threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 4096));
   app.add_option("--max-depth", job.max_depth, "Maximum path depth")->check(CLI::Range(0, 1 << 20));
   app.add_option("--out,-o", job.outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
+  app.add_flag("--multiple-scattering", job.multiple_scattering,
+               "glTF materials: Kulla-Conty energy compensation of rough lobes (off: single scattering)");
   app.add_option("--integrator", job.integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
       ->check(CLI::IsMember({"path", "bsdf"}));
   app.add_option("--filter", job.filter,

@@ -363,3 +363,23 @@ TEST_CASE("AttenuationTest cubes follow the Beer-Lambert closed form in every ro
     check_window<RGB>(g, Float(t1[0]), Float(t1[1]), half, sample_expected, 1e-4, std::string("R1_Sample_") + s);
   }
 }
+
+TEST_CASE("GltfOptions multiple_scattering turns on energy compensation of every material", "[gltf][bxdf]") {
+  const std::vector<std::string> ext{"KHR_materials_transmission", "KHR_materials_volume"};
+  json m = volume_material(1.5, {0.5, 0.5, 0.5}, 1, 0.01);
+  m["pbrMetallicRoughness"]["roughnessFactor"] = 1;  // rough enough to be compensated
+  std::string path = write_temp("ms.gltf", box_gltf(1, m, ext));
+  GltfOptions opt;
+  opt.multiple_scattering = true;
+  auto off = load_gltf<RGB>(path);
+  auto on = load_gltf<RGB>(path, opt);
+  const auto& mat_off = std::get<0>(off.scene.materials()[0]);
+  const auto& mat_on = std::get<0>(on.scene.materials()[0]);
+  CHECK_FALSE(mat_off.multiple_scattering);
+  CHECK(mat_on.multiple_scattering);
+  // The BxDFs made from them: only the second compensates.
+  SurfaceInteraction si;
+  si.n = si.ns = Normal3f(0, 0, 1);
+  CHECK_FALSE(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat_off, si, RGBWavelengths{}).multiple_scattering());
+  CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat_on, si, RGBWavelengths{}).multiple_scattering());
+}

@@ -44,6 +44,10 @@ struct GltfOptions {
   // (AnimatedTransform: linear translation and stretch, slerp rotation).
   // Cameras and punctual lights stay where they are at `time`.
   double shutter = 0;
+  // Kulla-Conty energy compensation on every material's rough lobes
+  // (MetalRoughMaterial::multiple_scattering; docs/bxdfs.md). Off by default:
+  // glTF's reference viewers render single scattering.
+  bool multiple_scattering = false;
 };
 
 // A camera of the file, placed by its node. camera_to_world maps prism's
@@ -946,6 +950,7 @@ class Loader {
     auto found = m_material_cache.find(i);
     if (found != m_material_cache.end()) return found->second;
     MetalRoughMaterial mat;
+    mat.multiple_scattering = m_opt.multiple_scattering;
     if (i < 0) {
       mat.name = "glTF default material";
     } else {
