@@ -550,15 +550,19 @@ int main(int argc, char** argv) {
     }
   }
 
+  // The scenes of scenes.hpp: built in code, framed by their own camera.
+  auto run_code_scene = [&](auto& scene, const char* name, const char* colour, const auto& cam, int ref_spp) {
+    scene.build();
+    Harness::Reference ref = h.reference(std::string(name) + "_" + colour, scene, cam, ref_spp);
+    h.run_methods(name, std::string("/") + colour, scene, cam, ref, standard_methods());
+  };
+
   // A tiny, very bright sphere light over diffuse and glossy surfaces.
   if (wants("tiny_light")) {
     std::printf("tiny_light: a sphere light of radius 0.004 with a normal light's power\n");
     Scene<RGB> scene;
     convergence::build_tiny_light_scene(scene);
-    scene.build();
-    const auto cam = convergence::tiny_light_camera(W, H);
-    Harness::Reference ref = h.reference("tiny_light_rgb", scene, cam, tiny_light_ref_spp);
-    h.run_methods("tiny_light", "/rgb", scene, cam, ref, standard_methods());
+    run_code_scene(scene, "tiny_light", "rgb", convergence::tiny_light_camera(W, H), tiny_light_ref_spp);
   }
 
   // Caustics through a smooth and a rough glass sphere.
@@ -566,10 +570,7 @@ int main(int argc, char** argv) {
     std::printf("caustic: smooth and rough glass spheres under a small light\n");
     Scene<RGB> scene;
     convergence::build_caustic_scene(scene);
-    scene.build();
-    const auto cam = convergence::caustic_camera(W, H);
-    Harness::Reference ref = h.reference("caustic_rgb", scene, cam, caustic_ref_spp);
-    h.run_methods("caustic", "/rgb", scene, cam, ref, standard_methods());
+    run_code_scene(scene, "caustic", "rgb", convergence::caustic_camera(W, H), caustic_ref_spp);
   }
 
   // A glTF model under the HDR environment plus a distant sun.
@@ -610,10 +611,7 @@ int main(int argc, char** argv) {
     std::printf("prism: a small white lamp, a slit, an N-SF11 prism and a screen (spectral)\n");
     Scene<Spectral> scene;
     convergence::build_prism_scene(scene);
-    scene.build();
-    const auto cam = convergence::prism_camera(W, H);
-    Harness::Reference ref = h.reference("prism_spectral", scene, cam, prism_ref_spp);
-    h.run_methods("prism", "/spectral", scene, cam, ref, standard_methods());
+    run_code_scene(scene, "prism", "spectral", convergence::prism_camera(W, H), prism_ref_spp);
   }
   std::printf("total %.0f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return 0;

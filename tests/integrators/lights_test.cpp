@@ -3,8 +3,10 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <prism/prism.hpp>
+#include "support/film_checks.hpp"
 
 using namespace prism;
+using namespace prism_test;
 
 namespace {
 
@@ -56,21 +58,7 @@ void check_point_light_over_plane() {
 // (importance-sampled map) and BSDF sampling alone agree.
 template <class S>
 void check_environment_lit_sphere() {
-  EnvironmentImage env;
-  env.width = 64;
-  env.height = 32;
-  env.rgb.resize(size_t(env.width) * size_t(env.height) * 3);
-  for (int y = 0; y < env.height; ++y)
-    for (int x = 0; x < env.width; ++x) {
-      float sky = 0.2f + 0.8f * float(env.height - y) / float(env.height);
-      // A 4x4-texel sun, 100 times the sky: bright enough for the map's
-      // importance sampling to matter, large enough for BSDF sampling to find
-      // it often (a 2-texel sun of 200 needs ~4096 spp before the BSDF-only
-      // estimate's variance is estimated reliably).
-      bool sun = x >= 40 && x < 44 && y >= 8 && y < 12;
-      for (int c = 0; c < 3; ++c)
-        env.rgb[(size_t(y) * size_t(env.width) + size_t(x)) * 3 + size_t(c)] = sun ? 20.f : sky * (c == 2 ? 1.f : 0.7f);
-    }
+  EnvironmentImage env = sky_with_sun();
   Scene<S> scene;
   uint32_t m = scene.add_material(DiffuseMaterial{RGB(0.7f)});
   scene.add_sphere(Sphere{{0, 0, 0}, 1}, m);
@@ -85,21 +73,7 @@ void check_environment_lit_sphere() {
   render(scene, cam, PathIntegrator{}, a, opt);
   opt.seed = 22;
   render(scene, cam, BSDFPathIntegrator{}, b, opt);
-  for (int ry = 0; ry < h; ry += region)
-    for (int rx = 0; rx < w; rx += region)
-      for (int c = 0; c < 3; ++c) {
-        double ma = 0, mb = 0, va = 0, vb = 0, n = region * region;
-        for (int y = ry; y < ry + region; ++y)
-          for (int x = rx; x < rx + region; ++x) {
-            ma += a.pixel(x, y)[c] / n;
-            mb += b.pixel(x, y)[c] / n;
-            va += a.variance(x, y)[c] / (n * n);
-            vb += b.variance(x, y)[c] / (n * n);
-          }
-        double sigma = std::sqrt(va + vb);
-        INFO("region " << rx << "," << ry << " channel " << c << ": MIS " << ma << " BSDF " << mb << " sigma " << sigma);
-        CHECK(std::abs(ma - mb) <= 4 * sigma);
-      }
+  check_regions_agree(a, b, region, "MIS", "BSDF");
 }
 
 }  // namespace

@@ -7,8 +7,10 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <prism/prism.hpp>
+#include "support/film_checks.hpp"
 
 using namespace prism;
+using namespace prism_test;
 
 namespace {
 
@@ -16,34 +18,6 @@ PathIntegrator nee_without_mis() {
   PathOptions o;
   o.mis = false;
   return PathIntegrator(o);
-}
-
-// The mean of channel c over a region of a film and the variance of that mean.
-std::pair<double, double> region_mean(const Film& f, int c, int x0, int y0, int size) {
-  double m = 0, v = 0, n = double(size) * double(size);
-  for (int y = y0; y < y0 + size; ++y)
-    for (int x = x0; x < x0 + size; ++x) {
-      m += double(f.pixel(x, y)[c]) / n;
-      v += double(f.variance(x, y)[c]) / (n * n);
-    }
-  return {m, v};
-}
-
-// Compares two films region by region, channel by channel, at 4 sigma.
-void check_regions_agree(const Film& a, const Film& b, int region) {
-  int compared = 0;
-  for (int ry = 0; ry < a.height(); ry += region)
-    for (int rx = 0; rx < a.width(); rx += region)
-      for (int c = 0; c < 3; ++c) {
-        auto [ma, va] = region_mean(a, c, rx, ry, region);
-        auto [mb, vb] = region_mean(b, c, rx, ry, region);
-        double sigma = std::sqrt(va + vb);
-        INFO("region " << rx << "," << ry << " channel " << c << ": MIS " << ma << " no MIS " << mb << " sigma "
-                       << sigma);
-        CHECK(std::abs(ma - mb) <= 4 * sigma);
-        ++compared;
-      }
-  CHECK(compared == 3 * (a.width() / region) * (a.height() / region));
 }
 
 }  // namespace
@@ -90,22 +64,12 @@ TEST_CASE("NEE without MIS agrees with NEE with MIS on the Cornell box", "[integ
   render(scene, cam, PathIntegrator{}, a, opt);
   opt.seed = 42;
   render(scene, cam, nee_without_mis(), b, opt);
-  check_regions_agree(a, b, 8);
+  check_regions_agree(a, b, 8, "MIS", "no MIS");
 }
 
 TEST_CASE("NEE without MIS agrees with NEE with MIS under an environment map with a sun",
           "[integrators][mis][environment]") {
-  EnvironmentImage env;
-  env.width = 64;
-  env.height = 32;
-  env.rgb.resize(size_t(env.width) * size_t(env.height) * 3);
-  for (int y = 0; y < env.height; ++y)
-    for (int x = 0; x < env.width; ++x) {
-      float sky = 0.2f + 0.8f * float(env.height - y) / float(env.height);
-      bool sun = x >= 40 && x < 44 && y >= 8 && y < 12;
-      for (int c = 0; c < 3; ++c)
-        env.rgb[(size_t(y) * size_t(env.width) + size_t(x)) * 3 + size_t(c)] = sun ? 20.f : sky * (c == 2 ? 1.f : 0.7f);
-    }
+  EnvironmentImage env = sky_with_sun();
   Scene<RGB> scene;
   const Scene<RGB>::material_type diffuse = DiffuseMaterial{RGB(0.7f)};
   const Scene<RGB>::material_type glossy =
@@ -123,5 +87,5 @@ TEST_CASE("NEE without MIS agrees with NEE with MIS under an environment map wit
   render(scene, cam, PathIntegrator{}, a, opt);
   opt.seed = 52;
   render(scene, cam, nee_without_mis(), b, opt);
-  check_regions_agree(a, b, 8);
+  check_regions_agree(a, b, 8, "MIS", "no MIS");
 }
