@@ -18,8 +18,19 @@
 #include <optional>
 #include "prism/geometry/triangle.hpp"
 
+// The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4 or
+// 8), otherwise 8 where the compiler may use AVX and FMA and 4 elsewhere.
+// docs/performance.md has the measurements behind the default.
+#if defined(PRISM_TRIANGLE_PACKET_WIDTH)
+#define PRISM_TRIANGLE_PACKET_W PRISM_TRIANGLE_PACKET_WIDTH
+#elif defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
+#define PRISM_TRIANGLE_PACKET_W 8
+#else
+#define PRISM_TRIANGLE_PACKET_W 4
+#endif
+
 #if defined(PRISM_BVH_NO_SIMD)
-#elif defined(PRISM_TRIANGLE_PACKET_WIDTH) && PRISM_TRIANGLE_PACKET_WIDTH == 8
+#elif PRISM_TRIANGLE_PACKET_W == 8
 #if defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF)
 #include <immintrin.h>
 #define PRISM_TRIANGLE_SIMD 1
@@ -36,11 +47,7 @@
 
 namespace prism {
 
-#if defined(PRISM_TRIANGLE_PACKET_WIDTH)
-inline constexpr int triangle_packet_width = PRISM_TRIANGLE_PACKET_WIDTH;
-#else
-inline constexpr int triangle_packet_width = 4;
-#endif
+inline constexpr int triangle_packet_width = PRISM_TRIANGLE_PACKET_W;
 static_assert(triangle_packet_width == 4 || triangle_packet_width == 8);
 
 // v[3 * vertex + axis][lane]. Unused lanes repeat a triangle of the packet
@@ -73,7 +80,7 @@ inline std::optional<TriangleHit> intersect_lane(const TrianglePacket& p, int la
 #if defined(PRISM_TRIANGLE_SIMD)
 // Four or eight lanes, one set of names.
 namespace pk {
-#if defined(PRISM_TRIANGLE_PACKET_WIDTH) && PRISM_TRIANGLE_PACKET_WIDTH == 8
+#if PRISM_TRIANGLE_PACKET_W == 8
 using V = __m256;
 inline V load(const float* p) { return _mm256_load_ps(p); }
 inline V set1(float x) { return _mm256_set1_ps(x); }
