@@ -73,7 +73,7 @@ class BSDF {
   template <class W, size_t... I>
   static void build(BSDF& out, const typename Set::material_variant& m, const SurfaceInteraction& si, W& lambda,
                     std::index_sequence<I...>) {
-    ((m.index() == I ? (build_one<I>(out, std::get<I>(m), si, lambda), true) : false) || ...);
+    (void)((m.index() == I ? (build_one<I>(out, std::get<I>(m), si, lambda), true) : false) || ...);
   }
   template <size_t I, class M, class W>
   static void build_one(BSDF& out, const M& mat, const SurfaceInteraction& si, W& lambda) {
