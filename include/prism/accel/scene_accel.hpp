@@ -308,8 +308,7 @@ class SceneAccel {
       m_bounds = union_bounds(m_bounds, m_tops.back().bounds());
     }
     m_time_scale = m_time1 > m_time0 ? Float(segments) / (m_time1 - m_time0) : 0;
-    m_lone_identity_mesh = m_instances.size() == 1 && m_instances[0].kind == Instance::Kind::mesh &&
-                           m_instances[0].identity;
+    m_lone_instance = m_instances.size() == 1;
   }
 
  public:
@@ -348,9 +347,10 @@ class SceneAccel {
       best = {t_local, th.b0, th.b1, th.b2, inst_id, tri};
       return true;
     };
-    // A lone identity mesh instance needs no top level: its own BVH's boxes
-    // lie inside the top-level box, so that test would cull nothing more.
-    bool found = m_lone_identity_mesh ? visit(0, t_max) : top.intersect(wr, t_max, visit);
+    // A lone instance needs no top level: the top-level box only encloses the
+    // instance, whose own test (its BVH's boxes, in its own space, or its
+    // sphere) culls at least as much, so the answer is the same.
+    bool found = m_lone_instance ? visit(0, t_max) : top.intersect(wr, t_max, visit);
     if (!found) return std::nullopt;
     return best;
   }
@@ -376,7 +376,7 @@ class SceneAccel {
                             ray, &dt);
       return m_mesh_accels[in.geometry].occluded(r.o, r.d, tm - dt, skip);
     };
-    return m_lone_identity_mesh ? visit(0, t_max) : top.occluded(wr, t_max, visit);
+    return m_lone_instance ? visit(0, t_max) : top.occluded(wr, t_max, visit);
   }
 
   // The full surface description of a hit, in world space.
@@ -429,7 +429,7 @@ class SceneAccel {
   std::vector<BVH> m_tops{1};  // one per motion segment
   Bounds3f m_bounds;
   Float m_time0 = 0, m_time1 = 0, m_time_scale = 0;
-  bool m_lone_identity_mesh = false;
+  bool m_lone_instance = false;
   BVHBuildOptions m_build_options;
 };
 
