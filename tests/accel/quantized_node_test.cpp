@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <type_traits>
 
 #include "prism/accel/bvh.hpp"
 #include "prism/sampling/pcg32.hpp"
@@ -118,6 +119,16 @@ TEST_CASE("a quantized node's boxes contain its children's float boxes", "[accel
   // after rounding up the scale) per plane; a mean above that would mean the
   // grid is coarser than it should be.
   CHECK(slack_sum / slack_n < 2.0 / 255);
+}
+
+TEST_CASE("the traversal layout is the one the build selects", "[accel][bvh][quantized]") {
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
+  CHECK(std::is_same_v<detail::BVHWideNode, detail::BVHQuantWideNode>);
+  CHECK(sizeof(detail::BVHWideNode) == (W == 8 ? 128u : 72u));
+#else
+  CHECK(std::is_same_v<detail::BVHWideNode, detail::BVHFloatWideNode>);
+  CHECK(sizeof(detail::BVHWideNode) == 32u * W);
+#endif
 }
 
 TEST_CASE("a quantized node leaves axes it cannot quantize unbounded", "[accel][bvh][quantized]") {
