@@ -19,7 +19,9 @@
 // one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
 // makes a fraction of the binary tree's visits and cache misses. Each lane's
 // box test is exactly intersect_node's, so a ray reaches the same primitives
-// as through the binary tree.
+// as through the binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
+// boxes quantized to bytes, rounded outward (half the node size; see
+// BVHQuantWideNode): a ray then reaches a superset of those primitives.
 #pragma once
 #include <algorithm>
 #include <atomic>
