@@ -19,14 +19,18 @@
 // one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
 // makes a fraction of the binary tree's visits and cache misses. Each lane's
 // box test is exactly intersect_node's, so a ray reaches the same primitives
-// as through the binary tree.
+// as through the binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
+// boxes quantized to bytes, rounded outward (half the node size; see
+// BVHQuantWideNode): a ray then reaches a superset of those primitives.
 #pragma once
 #include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <future>
+#include <limits>
 #include <memory>
 #include <span>
 #include <thread>
@@ -195,13 +199,140 @@ static_assert(wide_width == 4 || wide_width == 8, "PRISM_BVH_WIDTH must be 4 or 
 #if defined(PRISM_BVH_AVX) && !(defined(PRISM_BVH_WIDTH) && PRISM_BVH_WIDTH == 4)
 #define PRISM_BVH_AVX_NODES 1
 #endif
-struct alignas(64) BVHWideNode {
+struct alignas(64) BVHFloatWideNode {
   static constexpr uint32_t interior = UINT32_MAX;
   Float b[6 * wide_width];
   uint32_t child[wide_width];  // interior: index of a wide node; leaf: first primitive (leaf order)
   uint32_t count[wide_width];  // leaf: primitive count; interior: `interior`
 };
-static_assert(sizeof(BVHWideNode) == 32 * wide_width);
+static_assert(sizeof(BVHFloatWideNode) == 32 * wide_width);
+
+// The compact layout (-DPRISM_BVH_QUANTIZED=1), after Ylitie et al. 2017
+// ("Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs")
+// and Embree's compressed nodes: per node and axis an origin and a power-of-
+// two scale 2^(e - 127) (e a byte: the bits of a float's exponent field; e = 0
+// means scale 0), per child and axis two bytes q, the planes being
+//   plane(q) = origin + q * scale.
+// 128 bytes for 8 children (the boxes in the first cache line, the links in
+// the second), 72 for 4.
+//
+// Why the box test stays conservative. (1) For 1 <= e <= 246 the product
+// q * 2^(e - 127) (q < 256) is exact: 8 significant bits scaled by a power of
+// two between 2^-126 and 2^119, so neither underflow nor overflow; for e = 0
+// it is +0. So origin + q * scale has one rounding whether or not it is
+// contracted to an FMA, and traversal (any SIMD path) computes bit for bit the
+// plane that the builder computes with dequantize() below. (2) The builder
+// checks those computed planes, not real-number ones: it picks for each child
+// the largest q whose plane is <= the child's float min and the smallest whose
+// plane is >= its float max (plane(q) is non-decreasing in q, rounding being
+// monotonic; plane(0) = origin = the node's min and plane(255) >= the node's
+// max by the choice of scale). So the box traversal tests contains the child's
+// box. (3) On that float box the slab test is exactly intersect_node's, robust
+// in the sense of Ize 2013 (far distance widened by 1 + 2 gamma(3)): no box
+// the ray really enters is culled, and the entry distance it reports is at
+// most the exact box's, so sorting and the culling of deferred children after
+// a hit stay conservative. An axis that cannot be quantized (non-finite or
+// inverted child bounds, or an extent beyond 255 * 2^119) gets origin NaN:
+// its planes are NaN, which the slab test ignores (every comparison with NaN
+// keeps the running value), so that axis culls nothing. Unused lanes are not
+// in `lanes` and are never entered.
+struct alignas(wide_width == 8 ? 64 : 8) BVHQuantWideNode {
+  static constexpr uint32_t interior = UINT32_MAX;
+  Float origin[3];
+  uint8_t exp[3];
+  uint8_t lanes;                // bit l: lane l holds a child
+  uint8_t q[6 * wide_width];    // q[2W * axis + W * side + lane], side 0 = min, 1 = max
+  uint32_t child[wide_width];
+  uint32_t count[wide_width];
+};
+static_assert(sizeof(BVHQuantWideNode) == 16 + 14 * wide_width);
+
+// The plane q of an axis with the given origin and scale exponent byte.
+inline Float quant_scale(uint8_t e) { return std::bit_cast<Float>(uint32_t(e) << 23); }
+inline Float dequantize(Float origin, uint8_t e, int q) { return origin + Float(q) * quant_scale(e); }
+
+// Fills the boxes of a quantized node from the k children's float boxes (see
+// BVHQuantWideNode for why the result contains them); links are zeroed.
+inline void set_boxes(BVHQuantWideNode& n, const Bounds3f* box, int k) {
+  constexpr int W = wide_width;
+  constexpr int max_e = 246;  // scale 2^119: 255 * scale stays below 2^127
+  n = BVHQuantWideNode{};
+  n.lanes = uint8_t((1u << k) - 1);
+  for (int a = 0; a < 3; ++a) {
+    uint8_t* qlo = n.q + 2 * W * a;
+    uint8_t* qhi = qlo + W;
+    Float lo = infinity, hi = -infinity;
+    bool ok = k > 0;
+    for (int l = 0; l < k; ++l) {
+      Float bl = box[l].min[a], bh = box[l].max[a];
+      if (!(std::isfinite(bl) && std::isfinite(bh) && bl <= bh)) ok = false;
+      lo = std::min(lo, bl);
+      hi = std::max(hi, bh);
+    }
+    int e = 0;
+    if (ok && hi > lo) {
+      // The smallest scale 2^s with 255 * 2^s >= hi - lo (in double: exact).
+      int p;
+      double m = std::frexp((double(hi) - double(lo)) / 255.0, &p);
+      int s = std::max(m == 0.5 ? p - 1 : p, -126);
+      e = s + 127;
+      while (e <= max_e && dequantize(lo, uint8_t(e), 255) < hi) ++e;  // rounding (not expected)
+      if (e > max_e) ok = false;
+    }
+    if (!ok) {
+      n.origin[a] = std::numeric_limits<Float>::quiet_NaN();
+      n.exp[a] = 0;
+      continue;
+    }
+    n.origin[a] = lo;
+    n.exp[a] = uint8_t(e);
+    double scale = double(quant_scale(uint8_t(e)));
+    auto plane = [&](int q) { return dequantize(lo, uint8_t(e), q); };
+    for (int l = 0; l < k; ++l) {
+      Float bl = box[l].min[a], bh = box[l].max[a];
+      int ql = 0, qh = 0;
+      if (scale > 0) {
+        ql = int(std::clamp(std::floor((double(bl) - double(lo)) / scale), 0.0, 255.0));
+        qh = int(std::clamp(std::ceil((double(bh) - double(lo)) / scale), 0.0, 255.0));
+      }
+      // The largest plane <= bl and the smallest >= bh (plane(0) = lo <= bl,
+      // plane(255) >= hi >= bh).
+      while (ql > 0 && plane(ql) > bl) --ql;
+      while (ql < 255 && plane(ql + 1) <= bl) ++ql;
+      while (qh < 255 && plane(qh) < bh) ++qh;
+      while (qh > 0 && plane(qh - 1) >= bh) --qh;
+      qlo[l] = uint8_t(ql);
+      qhi[l] = uint8_t(qh);
+    }
+  }
+}
+// The box traversal tests for lane l (NaN planes on an unquantized axis).
+inline Bounds3f dequantized_box(const BVHQuantWideNode& n, int l) {
+  constexpr int W = wide_width;
+  Bounds3f b;
+  for (int a = 0; a < 3; ++a) {
+    b.min[a] = dequantize(n.origin[a], n.exp[a], n.q[2 * W * a + l]);
+    b.max[a] = dequantize(n.origin[a], n.exp[a], n.q[2 * W * a + W + l]);
+  }
+  return b;
+}
+inline void set_boxes(BVHFloatWideNode& n, const Bounds3f* box, int k) {
+  constexpr int W = wide_width;
+  for (int l = 0; l < W; ++l) {
+    for (int a = 0; a < 3; ++a) {
+      n.b[2 * W * a + l] = l < k ? box[l].min[a] : infinity;
+      n.b[2 * W * a + W + l] = l < k ? box[l].max[a] : -infinity;
+    }
+    n.child[l] = 0;
+    n.count[l] = 0;
+  }
+}
+
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
+using BVHWideNode = BVHQuantWideNode;
+#else
+using BVHWideNode = BVHFloatWideNode;
+#endif
 
 // Per-ray data for the lane-parallel box tests: the offsets in BVHWideNode::b
 // of the near and far slab planes per axis, chosen by the direction's sign as
@@ -238,7 +369,7 @@ struct WideRayPrecomp {
 // operations and their order (including which operand wins a comparison with
 // a NaN) are intersect_node's, so every lane's result is bit for bit the same:
 // max(a, b) below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane.
-inline int intersect_wide(const BVHWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
+inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
   constexpr Float widen = 1 + 2 * gamma(3);
 #if defined(PRISM_BVH_AVX_NODES)
   __m256 t0 = _mm256_setzero_ps();
@@ -283,15 +414,97 @@ inline int intersect_wide(const BVHWideNode& n, const WideRayPrecomp& r, Float t
 #endif
 }
 
+// The same for a quantized node: each lane's planes are dequantized (exactly
+// as dequantize() computes them) and then tested as above, so every lane's
+// result is intersect_node's on the box dequantized_box() gives.
+inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
+  constexpr Float widen = 1 + 2 * gamma(3);
+#if defined(PRISM_BVH_AVX_NODES)
+  // Eight bytes from q + off as eight floats.
+  auto load_q = [&](int off) {
+#if defined(__AVX2__)
+    return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(n.q + off))));
+#else
+    __m128i b = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(n.q + off));
+    __m128i lo = _mm_cvtepu8_epi32(b), hi = _mm_cvtepu8_epi32(_mm_srli_si128(b, 4));
+    return _mm256_cvtepi32_ps(_mm256_insertf128_si256(_mm256_castsi128_si256(lo), hi, 1));
+#endif
+  };
+  __m256 t0 = _mm256_setzero_ps();
+  __m256 t1 = _mm256_set1_ps(t_max);
+  for (int a = 0; a < 3; ++a) {
+    __m256 org = _mm256_broadcast_ss(n.origin + a);
+    __m256 scale = _mm256_set1_ps(quant_scale(n.exp[a]));
+#if defined(__FMA__)
+    __m256 pn = _mm256_fmadd_ps(load_q(r.near_off[a]), scale, org);
+    __m256 pf = _mm256_fmadd_ps(load_q(r.far_off[a]), scale, org);
+#else
+    __m256 pn = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.near_off[a]), scale));
+    __m256 pf = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.far_off[a]), scale));
+#endif
+    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(pn, r.o[a]), r.inv_d[a]);
+    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(pf, r.o[a]), r.inv_d[a]);
+    t0 = _mm256_max_ps(tn, t0);
+    t1 = _mm256_min_ps(tf, t1);
+  }
+  _mm256_store_ps(t_entry, t0);
+  return _mm256_movemask_ps(_mm256_cmp_ps(t0, _mm256_mul_ps(t1, _mm256_set1_ps(widen)), _CMP_LE_OQ)) & n.lanes;
+#elif defined(PRISM_BVH_SSE)
+  // Four bytes from q + off as four floats (SSE2 unpacking).
+  auto load_q = [&](int off) {
+    int32_t v;
+    std::memcpy(&v, n.q + off, 4);
+    __m128i z = _mm_setzero_si128();
+    __m128i b = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(v), z), z);
+    return _mm_cvtepi32_ps(b);
+  };
+  int mask = 0;
+  for (int h = 0; h < wide_width; h += 4) {
+    __m128 t0 = _mm_setzero_ps();
+    __m128 t1 = _mm_set1_ps(t_max);
+    for (int a = 0; a < 3; ++a) {
+      __m128 org = _mm_set1_ps(n.origin[a]);
+      __m128 scale = _mm_set1_ps(quant_scale(n.exp[a]));
+      __m128 pn = _mm_add_ps(org, _mm_mul_ps(load_q(r.near_off[a] + h), scale));
+      __m128 pf = _mm_add_ps(org, _mm_mul_ps(load_q(r.far_off[a] + h), scale));
+      __m128 tn = _mm_mul_ps(_mm_sub_ps(pn, r.o[a]), r.inv_d[a]);
+      __m128 tf = _mm_mul_ps(_mm_sub_ps(pf, r.o[a]), r.inv_d[a]);
+      t0 = _mm_max_ps(tn, t0);
+      t1 = _mm_min_ps(tf, t1);
+    }
+    _mm_store_ps(t_entry + h, t0);
+    mask |= _mm_movemask_ps(_mm_cmple_ps(t0, _mm_mul_ps(t1, _mm_set1_ps(widen)))) << h;
+  }
+  return mask & n.lanes;
+#else
+  int mask = 0;
+  for (int l = 0; l < wide_width; ++l) {
+    Float t0 = 0, t1 = t_max;
+    for (int a = 0; a < 3; ++a) {
+      Float tn = (dequantize(n.origin[a], n.exp[a], n.q[r.near_off[a] + l]) - r.o[a]) * r.inv_d[a];
+      Float tf = (dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + l]) - r.o[a]) * r.inv_d[a];
+      t0 = tn > t0 ? tn : t0;
+      t1 = tf < t1 ? tf : t1;
+    }
+    t_entry[l] = t0;
+    if (t0 <= t1 * widen) mask |= 1 << l;
+  }
+  return mask & n.lanes;
+#endif
+}
+
 // Starts loading a wide node that traversal has deferred, so that it is in
 // cache by the time the stack hands it back.
 inline void prefetch(const BVHWideNode* n) {
-  const char* p = reinterpret_cast<const char*>(n);
-  for (size_t off = 0; off < sizeof(BVHWideNode); off += 64) {
+  // Every cache line the node touches (a 72-byte node may straddle three).
+  uintptr_t first = reinterpret_cast<uintptr_t>(n) & ~uintptr_t(63);
+  uintptr_t last = (reinterpret_cast<uintptr_t>(n) + sizeof(BVHWideNode) - 1) & ~uintptr_t(63);
+  for (uintptr_t at = first; at <= last; at += 64) {
+    const char* line = reinterpret_cast<const char*>(at);
 #if defined(PRISM_BVH_SSE)
-    _mm_prefetch(p + off, _MM_HINT_T0);
+    _mm_prefetch(line, _MM_HINT_T0);
 #elif defined(__GNUC__) || defined(__clang__)
-    __builtin_prefetch(p + off);
+    __builtin_prefetch(line);
 #endif
   }
 }
@@ -988,15 +1201,10 @@ class BVH {
     constexpr int W = detail::wide_width;
     uint32_t kids[W];
     int k = wide_children(bin, kids);
+    Bounds3f boxes[W];
+    for (int l = 0; l < k; ++l) boxes[l] = m_nodes[kids[l]].bounds();
     detail::BVHWideNode node;
-    for (int l = 0; l < W; ++l) {
-      for (int a = 0; a < 3; ++a) {
-        node.b[2 * W * a + l] = l < k ? m_nodes[kids[l]].bmin[a] : infinity;
-        node.b[2 * W * a + W + l] = l < k ? m_nodes[kids[l]].bmax[a] : -infinity;
-      }
-      node.child[l] = 0;
-      node.count[l] = 0;
-    }
+    detail::set_boxes(node, boxes, k);
     uint32_t next = w + 1;
     for (int l = 0; l < k; ++l) {
       const BVHNode& c = m_nodes[kids[l]];
