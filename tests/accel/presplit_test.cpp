@@ -3,7 +3,7 @@
 // budget; the references do not depend on the thread count; MeshAccel built
 // over them finds bit for bit the hits of brute force (closest hit, any hit,
 // any hit skipping a triangle) on meshes of long thin triangles, also after a
-// refit; a bad budget is refused.
+// refit; SceneAccel passes the budget on; a bad budget is refused.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -324,11 +324,12 @@ TEST_CASE("SceneAccel passes the split budget to its meshes and keeps triangle i
   CHECK(differ == 0);
 }
 
-TEST_CASE("a negative or non-finite split budget is refused", "[accel][presplit]") {
+TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel][presplit]") {
   PCG32 rng(26, 0x5b1);
   TriangleMesh m = random_long(10, rng);
   CHECK_THROWS_AS(MeshAccel(m, with_budget(-0.5f)), Error);
   CHECK_THROWS_AS(MeshAccel(m, with_budget(std::nanf(""))), Error);
   CHECK_THROWS_AS(MeshAccel(m, with_budget(infinity)), Error);
+  CHECK_THROWS_AS(MeshAccel(m, with_budget(1e9f)), Error);  // more than 2^32 references
   CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_budget(0.5f)));
 }

@@ -163,6 +163,9 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
   if (!(budget >= 0) || !std::isfinite(budget))
     throw Error("BVHBuildOptions::split_budget must be a finite number >= 0, got " + std::to_string(budget));
   const uint64_t total = uint64_t(double(budget) * double(n));
+  if (double(n) + double(total) > double(UINT32_MAX))
+    throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
+                std::to_string(double(n) + double(total)) + " references, more than 2^32 - 1");
   // Priorities.
   std::vector<float> prio(n);
   const int chunks = parallel_chunk_count(n, threads);
