@@ -113,36 +113,10 @@ inline Bounds3f clipped_reference(const Point3f& a, const Point3f& b, const Poin
   return r;
 }
 
-// The most important plane of the power-of-two grid over `scene` that cuts
-// box `b` strictly inside: the coarsest level l (cell = extent / 2^l) over
-// the three axes, ties to the longer extent. Returns l (31 if none) and sets
-// *axis, *pos.
-inline int grid_plane(const Bounds3f& b, const Bounds3f& scene, int* axis, Float* pos) {
-  int best = 31;
-  for (int a = 0; a < 3; ++a) {
-    double s0 = scene.min[a], e = double(scene.max[a]) - s0;
-    if (!(e > 0) || !(b.max[a] > b.min[a])) continue;
-    double u0 = (double(b.min[a]) - s0) / e, u1 = (double(b.max[a]) - s0) / e;
-    for (int l = 1; l < best || (l == best && b.max[a] - b.min[a] > b.max[*axis] - b.min[*axis]); ++l) {
-      double cells = std::ldexp(1.0, l);
-      double k = std::floor(u0 * cells) + 1;
-      Float x = Float(s0 + e * (k / cells));
-      if (k / cells < u1 && x > b.min[a] && x < b.max[a]) {
-        best = l;
-        *axis = a;
-        *pos = x;
-        break;
-      }
-      if (l >= 30) break;
-    }
-  }
-  return best;
-}
-
 // Appends the references of triangle `t` with `extra` extra references (or
 // fewer, where a box cannot be halved or a clip comes out empty).
 inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
-                           const Bounds3f& scene, std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
+                           std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
   const Bounds3f tri_box = union_bounds(union_bounds(Bounds3f(a), b), c);
   struct Item {
     Bounds3f box;
@@ -158,12 +132,8 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
       continue;
     }
     int axis = it.box.max_extent();
-    Float mid = 0;
-    if (grid_plane(it.box, scene, &axis, &mid) > 30) {
-      axis = it.box.max_extent();
-      mid = 0.5f * (it.box.min[axis] + it.box.max[axis]);
-    }
     Float lo = it.box.min[axis], hi = it.box.max[axis];
+    Float mid = 0.5f * (lo + hi);
     Bounds3f lh = it.box, rh = it.box;
     lh.max[axis] = mid;
     rh.min[axis] = mid;
@@ -196,22 +166,9 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
   if (double(n) + double(total) > double(UINT32_MAX))
     throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
                 std::to_string(double(n) + double(total)) + " references, more than 2^32 - 1");
-  const int chunks = parallel_chunk_count(n, threads);
-  // The mesh's box, for the grid of split planes.
-  std::vector<Bounds3f> chunk_box(static_cast<size_t>(chunks));
-  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
-    Bounds3f bb;
-    for (size_t i = begin; i < end; ++i) {
-      Point3f v[3];
-      vertices(i, v);
-      bb = union_bounds(union_bounds(union_bounds(bb, v[0]), v[1]), v[2]);
-    }
-    chunk_box[size_t(ch)] = bb;
-  });
-  Bounds3f scene;
-  for (const Bounds3f& bb : chunk_box) scene = union_bounds(scene, bb);
   // Priorities.
   std::vector<float> prio(n);
+  const int chunks = parallel_chunk_count(n, threads);
   std::vector<double> chunk_sum(static_cast<size_t>(chunks), 0.0);
   std::vector<uint64_t> chunk_pos(static_cast<size_t>(chunks), 0);
   parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
@@ -224,10 +181,6 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
       Float area2 = length(cross(v[1] - v[0], v[2] - v[0]));  // twice the area
       Float p = box.surface_area() - area2;
       if (!(p > 0) || !std::isfinite(p)) p = 0;
-      int axis = 0;
-      Float plane = 0;
-      int level = grid_plane(box, scene, &axis, &plane);
-      p = level > 30 ? 0 : std::cbrt(std::ldexp(p, -level));
       prio[i] = p;
       s += double(p);
       pos += p > 0;
@@ -281,7 +234,7 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
         part.bounds.push_back(union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]));
         part.tri.push_back(uint32_t(i));
       } else {
-        split_triangle(v[0], v[1], v[2], uint32_t(i), extra, scene, part.bounds, part.tri);
+        split_triangle(v[0], v[1], v[2], uint32_t(i), extra, part.bounds, part.tri);
       }
     }
   });
