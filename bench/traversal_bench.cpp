@@ -24,6 +24,10 @@
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
 //                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
+//                        [--split-budget F]
+// Second code-built case, "slivers" (make_sliver_scene): long thin triangles
+// where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget)
+// should pay.
 // --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
 // stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
@@ -148,6 +152,46 @@ TriangleMesh make_displaced_sphere(int n) {
                  d = base + idx(i, j + 1);
         m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
       }
+  }
+  return m;
+}
+
+// A scene of long thin triangles, where triangle pre-splitting
+// (BVHBuildOptions::split_budget) should pay: a 40 x 40 ground square turned
+// 30 degrees about the vertical (so its triangles' boxes are loose), cut into
+// 256 strips the length of the square (512 slivers 40 long, 0.16 wide);
+// 20000 straws, thin triangles 2 to 10 long and 0.01 wide in random
+// directions above the ground; and 64 small displaced cube-spheres
+// (make_displaced_sphere(24), radius 0.4 to 1.2) standing on the ground.
+// About 463k triangles; deterministic.
+TriangleMesh make_sliver_scene() {
+  TriangleMesh m;
+  Float c = std::cos(0.5236f), s = std::sin(0.5236f);
+  auto ground = [&](Float x, Float z) { return Point3f{c * x - s * z, 0, s * x + c * z}; };
+  const int strips = 256;
+  for (int i = 0; i < strips; ++i) {
+    Float z0 = -20 + 40 * Float(i) / strips, z1 = -20 + 40 * Float(i + 1) / strips;
+    uint32_t b = uint32_t(m.positions.size());
+    for (Point3f p : {ground(-20, z0), ground(20, z0), ground(20, z1), ground(-20, z1)}) m.positions.push_back(p);
+    m.indices.insert(m.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+  }
+  PCG32 rng(7, 0x511e);
+  auto uni = [&](Float a, Float b) { return a + (b - a) * rng.next_float(); };
+  for (int i = 0; i < 20000; ++i) {
+    Point3f a{uni(-18, 18), uni(0.1f, 6), uni(-18, 18)};
+    Vector3f d = sample_uniform_sphere({rng.next_float(), rng.next_float()}) * uni(2, 10);
+    Vector3f w = normalize(cross(d, sample_uniform_sphere({rng.next_float(), rng.next_float()}))) * 0.01f;
+    uint32_t b = uint32_t(m.positions.size());
+    m.positions.insert(m.positions.end(), {a, a + d, a + d * 0.5f + w});
+    m.indices.insert(m.indices.end(), {b, b + 1, b + 2});
+  }
+  TriangleMesh ball = make_displaced_sphere(24);
+  for (int k = 0; k < 64; ++k) {
+    Float r = uni(0.4f, 1.2f);
+    Vector3f at{uni(-15, 15), 1.35f * r, uni(-15, 15)};
+    uint32_t b = uint32_t(m.positions.size());
+    for (const Point3f& p : ball.positions) m.positions.push_back(Point3f(Vector3f(p) * r + at));
+    for (uint32_t i : ball.indices) m.indices.push_back(b + i);
   }
   return m;
 }
@@ -634,6 +678,7 @@ struct Options {
   int record_res = 512;  // the recording render: record_res^2 pixels at record_spp
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
+  float split_budget = 0;       // BVHBuildOptions::split_budget of prism's builds
 };
 
 struct InstanceRow {
@@ -714,6 +759,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     std::vector<double> tp, te;
     BVHBuildOptions bo;
     bo.threads = th;
+    bo.split_budget = opt.split_budget;
     for (int r = 0; r < std::max(3, opt.reps); ++r) {
       double t0 = now_seconds();
       prism_scene.build(bo);
@@ -732,9 +778,9 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
   size_t leaves = 0;
   for (const auto& n : nodes) leaves += n.is_leaf();
   std::printf("  prism BVH: %zu binary nodes, %zu wide nodes, %zu leaves, %.2f triangles per leaf, %.1f bytes per "
-              "triangle (binary tree, wide nodes, leaf order, triangle packets)\n",
-              nodes.size(), ma.bvh().wide_node_count(), leaves, double(ntri) / double(leaves),
-              double(ma.memory_bytes()) / double(ntri));
+              "triangle (binary tree, wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
+              nodes.size(), ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
+              double(ma.memory_bytes()) / double(ntri), ma.reference_count(), double(opt.split_budget));
 
   // Ray sets, all derived from prism's primary hits (deterministic).
   Bounds3f bounds = prism_scene.bounds();
@@ -842,7 +888,9 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     Transform xf = rotate(0.7f, {0.3f, 1, -0.2f});
     SceneAccel rotated;
     rotated.add_mesh_instance(rotated.add_mesh(mesh), xf);
-    rotated.build();
+    BVHBuildOptions bo;
+    bo.split_budget = opt.split_budget;
+    rotated.build(bo);
     std::vector<BenchRay> world = incoherent;
     for (BenchRay& r : world) {
       r.o = xf(r.o);
@@ -908,6 +956,8 @@ int main(int argc, char** argv) {
       opt.record_spp = std::max(1, std::atoi(next().c_str()));
     } else if (a == "--record-cap") {
       opt.record_cap = size_t(std::max(1, std::atoi(next().c_str())));
+    } else if (a == "--split-budget") {
+      opt.split_budget = std::strtof(next().c_str(), nullptr);
     } else if (a == "--threads") {
       opt.threads.clear();
       std::string s = next();
@@ -920,7 +970,8 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
-                   "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n",
+                   "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
+                   "       [--split-budget F (prism's BVHBuildOptions::split_budget, default 0)]\n",
                    argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
@@ -934,6 +985,7 @@ int main(int argc, char** argv) {
   run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
   std::vector<WatertightRow> wt;
   wt.push_back(run_watertight("procedural", sphere, 1000000));
+  run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
 
 #ifdef PRISM_BENCH_HAS_GLTF
   if (fs::exists(opt.gltf)) {

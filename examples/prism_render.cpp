@@ -136,6 +136,7 @@ struct Job {
   bool force_full = false;        // --instantiation full
   bool colour_auto = false;       // neither --rgb nor --spectral: the scene decides
   std::string default_scene = "cornell";
+  float split_budget = 0;         // --split-budget: BVHBuildOptions::split_budget
   std::string instantiation;      // the summary's instantiation line
 };
 
@@ -296,7 +297,9 @@ int run_default(const Job& job, const char* model, const prism::CornellBoxOption
   try {
     build_cornell_box(scene, box);
     scene.set_light_selection(light_selection(job.light_sampler));
-    scene.build();
+    BVHBuildOptions bo;
+    bo.split_budget = job.split_budget;
+    scene.build(bo);
     DefaultSceneDesc desc;
     desc.lens_radius = job.aperture;
     desc.focus_distance = job.focus_distance;
@@ -326,7 +329,9 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
       g.scene.add_light(UniformInfiniteLight<S>(RGB(1)));
     }
     g.scene.set_light_selection(light_selection(job.light_sampler));
-    g.scene.build();
+    BVHBuildOptions bo;
+    bo.split_budget = job.split_budget;
+    g.scene.build(bo);
   } catch (const Error& e) {
     return fail(e.what());
   }
@@ -483,6 +488,10 @@ int run(int argc, char** argv) {
                  "The built-in scene: cornell (the Cornell box with a glass prism, gold and frosted glass) or "
                  "cornell-diffuse (its diffuse walls, boxes and a white sphere only)")
       ->check(CLI::IsMember({"cornell", "cornell-diffuse"}));
+  app.add_option("--split-budget", job.split_budget,
+                 "Triangle pre-splitting: extra BVH references as a fraction of the triangles (0: off; "
+                 "0.3 pays on long thin triangles, docs/performance.md)")
+      ->check(CLI::Range(0.f, 16.f));
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)
   // Threads per rank by default: the node's cores shared among its ranks.

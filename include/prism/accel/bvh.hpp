@@ -86,6 +86,10 @@ struct BVHBuildOptions {
   // Scenes with moving instances: top-level trees over the motion's time
   // range (scene_accel.hpp); 0 = SceneAccel::kDefaultMotionSegments.
   int motion_segments = 0;
+  // Triangle meshes (MeshAccel): extra BVH references from pre-splitting
+  // triangles whose box is much larger than they are (accel/presplit.hpp), as
+  // a fraction of the triangle count; 0 = off.
+  float split_budget = 0;
 };
 
 // Per-ray data for box tests.

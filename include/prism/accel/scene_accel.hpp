@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 #include "prism/accel/bvh.hpp"
+#include "prism/accel/presplit.hpp"
 #include "prism/accel/triangle_packet.hpp"
 #include "prism/error.hpp"
 #include "prism/math/animated_transform.hpp"
@@ -46,6 +47,12 @@ inline auto triangle_bounds(const TriangleMesh& mesh) {
 // triangles to a packet (accel/triangle_packet.hpp): each leaf starts a new
 // packet, so a leaf's triangles are contiguous, need no index lookups and are
 // tested four at a time.
+//
+// With options.split_budget > 0 the BVH is built over references from
+// pre-splitting (accel/presplit.hpp): a triangle may then sit in several
+// leaves, each packet lane holding the whole triangle, so hits are exact and
+// the same as without splitting; m_leaf_tri maps leaf order to the mesh's
+// triangle index (without splitting that is the BVH's own prims()).
 class MeshAccel {
  public:
   MeshAccel() = default;
@@ -53,8 +60,25 @@ class MeshAccel {
     size_t n = mesh.triangle_count();
     BVHBuildOptions opt = options;
     opt.leaf_block = triangle_packet_width;
-    m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
     m_threads = detail::build_threads(opt.threads);
+    if (opt.split_budget != 0.0f) {
+      const Point3f* p = mesh.positions.data();
+      const uint32_t* idx = mesh.indices.data();
+      detail::SplitReferences refs = detail::presplit_triangles(
+          n,
+          [&](size_t i, Point3f* v) {
+            v[0] = p[idx[3 * i]];
+            v[1] = p[idx[3 * i + 1]];
+            v[2] = p[idx[3 * i + 2]];
+          },
+          opt.split_budget, m_threads);
+      m_bvh = BVH::build(refs.bounds.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
+      m_ref_tri = std::move(refs.tri);
+      m_leaf_tri.resize(m_bvh.prims().size());
+      for (size_t k = 0; k < m_leaf_tri.size(); ++k) m_leaf_tri[k] = m_ref_tri[m_bvh.prims()[k]];
+    } else {
+      m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
+    }
     m_triangles = n;
     size_t packets = m_bvh.prims().size() / triangle_packet_width;
     detail::reserve_huge(m_packets, packets);
@@ -69,15 +93,25 @@ class MeshAccel {
     if (mesh.triangle_count() != m_triangles)
       throw Error("MeshAccel::refit: the mesh has " + std::to_string(mesh.triangle_count()) +
                   " triangles, the BVH was built over " + std::to_string(m_triangles));
-    m_bvh.refit(detail::triangle_bounds(mesh));
+    // A split triangle's references each get its whole new box: conservative,
+    // so hits stay exact (re-splitting needs a rebuild).
+    if (m_ref_tri.empty())
+      m_bvh.refit(detail::triangle_bounds(mesh));
+    else
+      m_bvh.refit([b = detail::triangle_bounds(mesh), r = m_ref_tri.data()](size_t i) { return b(r[i]); });
     pack(mesh);
   }
 
   const BVH& bvh() const { return m_bvh; }
+  // BVH references per triangle (> 1 with pre-splitting).
+  size_t reference_count() const { return m_ref_tri.empty() ? m_triangles : m_ref_tri.size(); }
+  // The mesh's triangle index of leaf-order entry k (entries of bvh().prims()).
+  uint32_t leaf_triangle(size_t k) const { return leaf_order()[k]; }
   Bounds3f bounds() const { return m_bvh.bounds(); }
   // Bytes of the BVH's nodes, its leaf order and the triangle packets.
   size_t memory_bytes() const {
-    return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket);
+    return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket) +
+           (m_leaf_tri.size() + m_ref_tri.size()) * sizeof(uint32_t);
   }
 
   // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
@@ -112,16 +146,18 @@ class MeshAccel {
 
  private:
   static constexpr int W = triangle_packet_width;
+  const uint32_t* leaf_order() const { return m_leaf_tri.empty() ? m_bvh.prims().data() : m_leaf_tri.data(); }
   // Copies the triangles into the packets, in leaf order.
   void pack(const TriangleMesh& mesh) {
     const Point3f* p = mesh.positions.data();
     const uint32_t* idx = mesh.indices.data();
     size_t packets = m_packets.size();
+    const uint32_t* order = leaf_order();
     detail::parallel_chunks(packets, detail::parallel_chunk_count(packets, m_threads),
                             [&](size_t begin, size_t end, int) {
                               for (size_t k = begin; k < end; ++k)
                                 for (int l = 0; l < W; ++l) {
-                                  size_t t = m_bvh.prims()[k * W + size_t(l)];
+                                  size_t t = order[k * W + size_t(l)];
                                   m_packets[k].set(l, p[idx[3 * t]], p[idx[3 * t + 1]], p[idx[3 * t + 2]]);
                                 }
                             });
@@ -156,7 +192,7 @@ class MeshAccel {
       }
       return any;
     });
-    if (found) *tri = m_bvh.prims()[best];
+    if (found) *tri = leaf_order()[best];
     return found;
   }
   template <int KZ>
@@ -165,13 +201,14 @@ class MeshAccel {
     pc.kz = KZ;
     pc.kx = (KZ + 1) % 3;
     pc.ky = (KZ + 2) % 3;
+    const uint32_t* order = leaf_order();
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
         int lanes = lanes_of(count, j);
         if (skip != UINT32_MAX)
           for (int l = 0; l < W; ++l)
-            if (m_bvh.prims()[k * W + uint32_t(l)] == skip) lanes &= ~(1 << l);
+            if (order[k * W + uint32_t(l)] == skip) lanes &= ~(1 << l);
         if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
       }
       return false;
@@ -180,6 +217,8 @@ class MeshAccel {
 
   BVH m_bvh;
   std::vector<TrianglePacket> m_packets;
+  std::vector<uint32_t> m_ref_tri;   // pre-splitting only: reference -> triangle
+  std::vector<uint32_t> m_leaf_tri;  // pre-splitting only: leaf order -> triangle
   size_t m_triangles = 0;
   int m_threads = 1;
 };

@@ -1,0 +1,255 @@
+// prism/accel/presplit.hpp — triangle pre-splitting before a BVH build
+// (BVHBuildOptions::split_budget). A long thin or diagonal triangle has a box
+// far larger than itself; rays that enter the box mostly miss the triangle.
+// Before the build, such triangles are cut into several references, each with
+// the tight box of the triangle's part inside a sub-box, so that the BVH is
+// built over smaller boxes (the idea of Ernst & Greiner 2007, "early split
+// clipping", with the budgeted, prioritised allocation of Karras & Aila 2013).
+//
+// Allocation: a triangle's priority is the surface area by which its box
+// exceeds the triangle (box area minus twice the triangle's area; both sides
+// of the triangle count, as they do for a flat box). Triangle i gets
+// floor(s * priority_i) extra references, the scale s the largest (by
+// bisection) that keeps the total within the budget. A triangle with k extra
+// references is cut recursively: the current reference box is halved at the
+// midpoint of its longest axis, the triangle is clipped exactly against each
+// half (Sutherland-Hodgman), each half's reference box is the box of its
+// clipped polygon, padded by its rounding error and kept inside the half, and
+// the remaining k - 1 references are shared between the halves in proportion
+// to their boxes' areas.
+//
+// Conservative: the union of a triangle's reference boxes contains the whole
+// triangle (the clipped vertices are within the padding of the exact ones;
+// a half whose clip comes out empty leaves its parent box unsplit). The
+// result does not depend on the thread count: per-triangle work is
+// independent, counts are summed as integers, and chunks are concatenated in
+// triangle order.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "prism/accel/bvh.hpp"
+#include "prism/error.hpp"
+#include "prism/geometry/triangle.hpp"
+
+namespace prism {
+namespace detail {
+
+struct SplitReferences {
+  std::vector<Bounds3f> bounds;  // reference boxes
+  std::vector<uint32_t> tri;     // reference -> triangle index in the mesh
+};
+
+// The convex polygon of triangle (a, b, c) clipped to box `box` (closed); its
+// vertices, at most 9, in *out; returns their count (0: empty). Vertices
+// created on a plane get that plane's coordinate exactly.
+inline int clip_triangle_to_box(const Point3f& a, const Point3f& b, const Point3f& c, const Bounds3f& box,
+                                Point3f* out) {
+  Point3f buf[2][10];
+  int n = 3;
+  buf[0][0] = a;
+  buf[0][1] = b;
+  buf[0][2] = c;
+  int cur = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const Float plane = side == 0 ? box.min[axis] : box.max[axis];
+      auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] >= plane : p[axis] <= plane; };
+      const Point3f* in = buf[cur];
+      bool all_in = true;
+      for (int i = 0; i < n; ++i) all_in = all_in && inside(in[i]);
+      if (all_in) continue;
+      Point3f* o = buf[1 - cur];
+      int m = 0;
+      for (int i = 0; i < n; ++i) {
+        const Point3f& p = in[i];
+        const Point3f& q = in[(i + 1) % n];
+        bool pi = inside(p), qi = inside(q);
+        if (pi) o[m++] = p;
+        if (pi != qi) {
+          Float t = (plane - p[axis]) / (q[axis] - p[axis]);
+          Point3f x;
+          for (int k = 0; k < 3; ++k) {
+            Float v = p[k] + t * (q[k] - p[k]);
+            // Keep the vertex on its edge's extent despite rounding.
+            x[k] = std::clamp(v, std::min(p[k], q[k]), std::max(p[k], q[k]));
+          }
+          x[axis] = plane;
+          o[m++] = x;
+        }
+      }
+      n = m;
+      cur = 1 - cur;
+      if (n == 0) return 0;
+    }
+  for (int i = 0; i < n; ++i) out[i] = buf[cur][i];
+  return n;
+}
+
+// The reference box of triangle (a, b, c) inside `half`: the box of the
+// clipped polygon, padded by a bound on the clipping's rounding error (each
+// new vertex is an interpolation p + t (q - p) with t rounded, within about 4
+// units in the last place of the triangle's largest coordinate magnitude per
+// axis, for each of up to six chained clips: 32 epsilon covers them), then
+// intersected with `half`. Empty if the clip is.
+inline Bounds3f clipped_reference(const Point3f& a, const Point3f& b, const Point3f& c, const Bounds3f& tri_box,
+                                  const Bounds3f& half) {
+  Point3f poly[10];
+  int n = clip_triangle_to_box(a, b, c, half, poly);
+  Bounds3f r;
+  if (n == 0) return r;
+  for (int i = 0; i < n; ++i) r = union_bounds(r, poly[i]);
+  constexpr Float k = 32 * std::numeric_limits<Float>::epsilon();
+  for (int ax = 0; ax < 3; ++ax) {
+    Float mag = std::max(std::abs(tri_box.min[ax]), std::abs(tri_box.max[ax]));
+    Float pad = k * mag;
+    r.min[ax] = std::max(r.min[ax] - pad, half.min[ax]);
+    r.max[ax] = std::min(r.max[ax] + pad, half.max[ax]);
+  }
+  return r;
+}
+
+// Appends the references of triangle `t` with `extra` extra references (or
+// fewer, where a box cannot be halved or a clip comes out empty).
+inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
+                           std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
+  const Bounds3f tri_box = union_bounds(union_bounds(Bounds3f(a), b), c);
+  struct Item {
+    Bounds3f box;
+    uint32_t extra;
+  };
+  std::vector<Item> stack{{tri_box, extra}};
+  while (!stack.empty()) {
+    Item it = stack.back();
+    stack.pop_back();
+    if (it.extra == 0) {
+      out_bounds.push_back(it.box);
+      out_tri.push_back(t);
+      continue;
+    }
+    int axis = it.box.max_extent();
+    Float lo = it.box.min[axis], hi = it.box.max[axis];
+    Float mid = 0.5f * (lo + hi);
+    Bounds3f lh = it.box, rh = it.box;
+    lh.max[axis] = mid;
+    rh.min[axis] = mid;
+    Bounds3f l, r;
+    if (mid > lo && mid < hi) {
+      l = clipped_reference(a, b, c, tri_box, lh);
+      r = clipped_reference(a, b, c, tri_box, rh);
+    }
+    if (l.empty() || r.empty()) {  // cannot split: keep the box whole
+      out_bounds.push_back(it.box);
+      out_tri.push_back(t);
+      continue;
+    }
+    uint32_t rest = it.extra - 1;
+    double la = double(l.surface_area()), ra = double(r.surface_area());
+    uint32_t nl = la + ra > 0 ? uint32_t(std::min(double(rest), std::floor(double(rest) * la / (la + ra) + 0.5))) : rest / 2;
+    // Right first on the stack: the left half's references come out first.
+    stack.push_back({r, rest - nl});
+    stack.push_back({l, nl});
+  }
+}
+
+// The references of mesh triangles for a budget of `budget` extra references
+// per triangle (a fraction: 0.3 = up to 30% more references than triangles).
+template <class Vertices>
+SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, int threads) {
+  if (!(budget >= 0) || !std::isfinite(budget))
+    throw Error("BVHBuildOptions::split_budget must be a finite number >= 0, got " + std::to_string(budget));
+  const uint64_t total = uint64_t(double(budget) * double(n));
+  if (double(n) + double(total) > double(UINT32_MAX))
+    throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
+                std::to_string(double(n) + double(total)) + " references, more than 2^32 - 1");
+  // Priorities.
+  std::vector<float> prio(n);
+  const int chunks = parallel_chunk_count(n, threads);
+  std::vector<double> chunk_sum(static_cast<size_t>(chunks), 0.0);
+  std::vector<uint64_t> chunk_pos(static_cast<size_t>(chunks), 0);
+  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
+    double s = 0;
+    uint64_t pos = 0;
+    for (size_t i = begin; i < end; ++i) {
+      Point3f v[3];
+      vertices(i, v);
+      Bounds3f box = union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]);
+      Float area2 = length(cross(v[1] - v[0], v[2] - v[0]));  // twice the area
+      Float p = box.surface_area() - area2;
+      if (!(p > 0) || !std::isfinite(p)) p = 0;
+      prio[i] = p;
+      s += double(p);
+      pos += p > 0;
+    }
+    chunk_sum[size_t(ch)] = s;
+    chunk_pos[size_t(ch)] = pos;
+  });
+  double psum = 0;
+  uint64_t npos = 0;
+  for (int ch = 0; ch < chunks; ++ch) {
+    psum += chunk_sum[size_t(ch)];
+    npos += chunk_pos[size_t(ch)];
+  }
+  // The scale: sum floor(s p_i) <= total. At s = total / psum it holds; at
+  // s = (total + npos) / psum it is >= total; bisect in between.
+  std::vector<uint64_t> chunk_count(static_cast<size_t>(chunks));
+  auto count_at = [&](double s) {
+    parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
+      uint64_t c = 0;
+      for (size_t i = begin; i < end; ++i) c += uint64_t(std::floor(double(prio[i]) * s));
+      chunk_count[size_t(ch)] = c;
+    });
+    uint64_t c = 0;
+    for (uint64_t x : chunk_count) c += x;
+    return c;
+  };
+  double scale = 0;
+  if (total > 0 && psum > 0) {
+    double lo = double(total) / psum, hi = double(total + npos) / psum;
+    for (int it = 0; it < 24 && hi > lo * (1 + 1e-7); ++it) {
+      double m = 0.5 * (lo + hi);
+      if (count_at(m) <= total)
+        lo = m;
+      else
+        hi = m;
+    }
+    scale = lo;
+  }
+  // The references, chunk by chunk, concatenated in triangle order.
+  std::vector<SplitReferences> parts(static_cast<size_t>(chunks));
+  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
+    SplitReferences& part = parts[size_t(ch)];
+    part.bounds.reserve(size_t(double(end - begin) * (1.0 + double(budget))) + 16);
+    part.tri.reserve(part.bounds.capacity());
+    for (size_t i = begin; i < end; ++i) {
+      Point3f v[3];
+      vertices(i, v);
+      double e = std::floor(double(prio[i]) * scale);
+      uint32_t extra = uint32_t(std::min(e, double(total)));
+      if (extra == 0) {
+        part.bounds.push_back(union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]));
+        part.tri.push_back(uint32_t(i));
+      } else {
+        split_triangle(v[0], v[1], v[2], uint32_t(i), extra, part.bounds, part.tri);
+      }
+    }
+  });
+  SplitReferences refs;
+  size_t count = 0;
+  for (const auto& p : parts) count += p.tri.size();
+  refs.bounds.reserve(count);
+  refs.tri.reserve(count);
+  for (auto& p : parts) {
+    refs.bounds.insert(refs.bounds.end(), p.bounds.begin(), p.bounds.end());
+    refs.tri.insert(refs.tri.end(), p.tri.begin(), p.tri.end());
+    p = {};
+  }
+  return refs;
+}
+
+}  // namespace detail
+}  // namespace prism

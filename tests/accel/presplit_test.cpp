@@ -1,0 +1,335 @@
+// Triangle pre-splitting (BVHBuildOptions::split_budget, accel/presplit.hpp):
+// the references of a triangle cover it, stay inside its box and respect the
+// budget; the references do not depend on the thread count; MeshAccel built
+// over them finds bit for bit the hits of brute force (closest hit, any hit,
+// any hit skipping a triangle) on meshes of long thin triangles, also after a
+// refit; SceneAccel passes the budget on; a bad budget is refused.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "prism/accel/scene_accel.hpp"
+#include "prism/sampling/pcg32.hpp"
+
+#include "support/random.hpp"
+
+using namespace prism;
+
+namespace {
+
+using test::random_unit;
+using test::uniform;
+
+void add_tri(TriangleMesh& m, const Point3f& a, const Point3f& b, const Point3f& c) {
+  uint32_t k = uint32_t(m.positions.size());
+  m.positions.push_back(a);
+  m.positions.push_back(b);
+  m.positions.push_back(c);
+  m.indices.insert(m.indices.end(), {k, k + 1, k + 2});
+}
+
+// A fan of n slivers around the origin: each from near the centre to a far
+// rim point, a fraction of a degree wide, tilted out of the plane a little.
+TriangleMesh sliver_fan(int n, PCG32& rng) {
+  TriangleMesh m;
+  for (int i = 0; i < n; ++i) {
+    Float a = 2 * pi * Float(i) / Float(n), w = 0.3f * 2 * pi / Float(n);
+    Float r = uniform(rng, 5, 20), z = uniform(rng, -1, 1);
+    add_tri(m, Point3f{0.1f * std::cos(a), 0.1f * std::sin(a), 0}, Point3f{r * std::cos(a), r * std::sin(a), z},
+            Point3f{r * std::cos(a + w), r * std::sin(a + w), z});
+  }
+  return m;
+}
+
+// A large ground quad (two triangles, rotated about the vertical so that its
+// box is loose) with n small random triangles just above it.
+TriangleMesh ground_and_clutter(int n, PCG32& rng) {
+  TriangleMesh m;
+  Float c = std::cos(0.4f), s = std::sin(0.4f);
+  auto g = [&](Float x, Float y) { return Point3f{c * x - s * y, 0.01f * x, s * x + c * y}; };
+  add_tri(m, g(-20, -20), g(20, -20), g(20, 20));
+  add_tri(m, g(-20, -20), g(20, 20), g(-20, 20));
+  for (int i = 0; i < n; ++i) {
+    Vector3f p{uniform(rng, -15, 15), uniform(rng, 0.2f, 2), uniform(rng, -15, 15)};
+    for (int k = 0; k < 3; ++k) m.positions.push_back(Point3f(p + random_unit(rng) * 0.3f));
+    uint32_t b = uint32_t(m.positions.size() - 3);
+    m.indices.insert(m.indices.end(), {b, b + 1, b + 2});
+  }
+  return m;
+}
+
+// n long thin triangles in random orientations: a long edge of length up to
+// 30, a short width down to 1e-3.
+TriangleMesh random_long(int n, PCG32& rng) {
+  TriangleMesh m;
+  for (int i = 0; i < n; ++i) {
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    Vector3f d = random_unit(rng) * uniform(rng, 2, 30);
+    Vector3f w = random_unit(rng) * std::exp2(uniform(rng, -10, 0));
+    add_tri(m, a, a + d, a + d * uniform(rng, 0, 1) + w);
+  }
+  return m;
+}
+
+struct Closest {
+  bool hit = false;
+  Float t = infinity;
+  uint32_t tri = 0;
+};
+
+Point3f vtx(const TriangleMesh& m, uint32_t t, int k) { return m.positions[m.indices[3 * t + uint32_t(k)]]; }
+
+Closest brute_closest(const TriangleMesh& m, const Point3f& o, const Vector3f& d, Float t_max) {
+  RayTrianglePrecomp pc(d);
+  Closest c;
+  c.t = t_max;
+  for (uint32_t i = 0; i < uint32_t(m.triangle_count()); ++i) {
+    auto h = intersect_triangle(o, pc, c.t, vtx(m, i, 0), vtx(m, i, 1), vtx(m, i, 2));
+    if (h && (!c.hit || h->t < c.t)) c = {true, h->t, i};
+  }
+  return c;
+}
+bool brute_any(const TriangleMesh& m, const Point3f& o, const Vector3f& d, Float t_max, uint32_t skip) {
+  RayTrianglePrecomp pc(d);
+  for (uint32_t i = 0; i < uint32_t(m.triangle_count()); ++i)
+    if (i != skip && intersect_triangle(o, pc, t_max, vtx(m, i, 0), vtx(m, i, 1), vtx(m, i, 2))) return true;
+  return false;
+}
+
+// Rays from around the mesh's box toward random points on random triangles
+// (so that most hit, many along the slivers), plus fully random ones.
+struct TestRay {
+  Point3f o;
+  Vector3f d;
+};
+TestRay random_ray(const TriangleMesh& m, const Bounds3f& box, PCG32& rng) {
+  Vector3f ext = box.diagonal();
+  Point3f o{uniform(rng, box.min.x - 0.2f * ext.x, box.max.x + 0.2f * ext.x),
+            uniform(rng, box.min.y - 0.2f * ext.y, box.max.y + 0.2f * ext.y),
+            uniform(rng, box.min.z - 0.2f * ext.z, box.max.z + 0.2f * ext.z)};
+  if (rng.next_bounded(4) == 0) return {o, random_unit(rng)};
+  uint32_t t = rng.next_bounded(uint32_t(m.triangle_count()));
+  Float u = rng.next_float(), v = rng.next_float();
+  if (u + v > 1) {
+    u = 1 - u;
+    v = 1 - v;
+  }
+  Point3f p = vtx(m, t, 0) + (vtx(m, t, 1) - vtx(m, t, 0)) * u + (vtx(m, t, 2) - vtx(m, t, 0)) * v;
+  return {o, p - o};
+}
+
+// Closest hit, any hit at probes around it, and any hit skipping the closest
+// triangle, against brute force; returns a description of the first mismatch
+// (empty if none) and counts hits.
+std::string compare(const TriangleMesh& m, const MeshAccel& acc, int rays, PCG32& rng, int* hits) {
+  Bounds3f box;
+  for (const Point3f& p : m.positions) box = union_bounds(box, p);
+  for (int r = 0; r < rays; ++r) {
+    TestRay ray = random_ray(m, box, rng);
+    Float t_max = rng.next_bounded(4) == 0 ? uniform(rng, 0, 40) : infinity;
+    Closest ref = brute_closest(m, ray.o, ray.d, t_max);
+    Float tm = t_max;
+    TriangleHit th{};
+    uint32_t tri = 0;
+    bool h = acc.intersect(ray.o, ray.d, &tm, &th, &tri);
+    std::ostringstream what;
+    what.precision(9);
+    what << "ray " << r << " o=(" << ray.o.x << "," << ray.o.y << "," << ray.o.z << ") d=(" << ray.d.x << ","
+         << ray.d.y << "," << ray.d.z << ") t_max=" << t_max << ": brute force " << ref.hit << " t=" << ref.t
+         << " tri " << ref.tri << ", MeshAccel " << h << " t=" << tm << " tri " << tri;
+    if (h != ref.hit) return "closest hit/miss, " + what.str();
+    if (!h) {
+      if (acc.occluded(ray.o, ray.d, t_max)) return "occluded without a hit, " + what.str();
+      continue;
+    }
+    ++*hits;
+    if (std::memcmp(&tm, &ref.t, sizeof(Float)) != 0) return "closest t, " + what.str();
+    if (tri != ref.tri) {  // only an exact tie may pick another triangle
+      RayTrianglePrecomp pc(ray.d);
+      auto o = intersect_triangle(ray.o, pc, infinity, vtx(m, tri, 0), vtx(m, tri, 1), vtx(m, tri, 2));
+      if (!o || o->t != ref.t) return "closest triangle, " + what.str();
+    }
+    for (Float tp : {ref.t * 0.5f, next_float_down(ref.t), ref.t, next_float_up(ref.t), ref.t * 1.5f}) {
+      if (acc.occluded(ray.o, ray.d, tp) != brute_any(m, ray.o, ray.d, tp, UINT32_MAX))
+        return "occluded at " + std::to_string(tp) + ", " + what.str();
+      if (acc.occluded(ray.o, ray.d, tp, ref.tri) != brute_any(m, ray.o, ray.d, tp, ref.tri))
+        return "occluded skipping the closest triangle at " + std::to_string(tp) + ", " + what.str();
+    }
+  }
+  return {};
+}
+
+BVHBuildOptions with_budget(float b, int threads = 0) {
+  BVHBuildOptions o;
+  o.split_budget = b;
+  o.threads = threads;
+  return o;
+}
+
+detail::SplitReferences refs_of(const TriangleMesh& m, float budget, int threads) {
+  return detail::presplit_triangles(
+      m.triangle_count(),
+      [&](size_t i, Point3f* v) {
+        for (int k = 0; k < 3; ++k) v[k] = vtx(m, uint32_t(i), k);
+      },
+      budget, threads);
+}
+
+}  // namespace
+
+TEST_CASE("pre-split references cover their triangle and respect the budget", "[accel][presplit]") {
+  PCG32 rng(21, 0x5b1);
+  TriangleMesh m = random_long(500, rng);
+  TriangleMesh fan = sliver_fan(300, rng);
+  for (const TriangleMesh* mesh : {&m, &fan})
+    for (float budget : {0.1f, 1.0f, 8.0f}) {
+      detail::SplitReferences r = refs_of(*mesh, budget, 1);
+      size_t n = mesh->triangle_count();
+      INFO("budget " << budget << ", " << n << " triangles, " << r.tri.size() << " references");
+      CHECK(r.tri.size() <= n + size_t(double(budget) * double(n)));
+      CHECK(r.tri.size() >= n + size_t(0.5 * double(budget) * double(n)));  // the budget is mostly used
+      std::vector<std::vector<Bounds3f>> of(n);
+      size_t outside = 0, uncovered = 0, missing = 0;
+      for (size_t k = 0; k < r.tri.size(); ++k) {
+        uint32_t t = r.tri[k];
+        Bounds3f tb = union_bounds(union_bounds(Bounds3f(vtx(*mesh, t, 0)), vtx(*mesh, t, 1)), vtx(*mesh, t, 2));
+        const Bounds3f& b = r.bounds[k];
+        if (b.empty() || !tb.inside(b.min) || !tb.inside(b.max)) ++outside;
+        of[t].push_back(b);
+      }
+      // Points on each triangle: its vertices, points on its edges and inside.
+      for (uint32_t t = 0; t < uint32_t(n); ++t) {
+        if (of[t].empty()) {
+          ++missing;
+          continue;
+        }
+        Point3f a = vtx(*mesh, t, 0), b = vtx(*mesh, t, 1), c = vtx(*mesh, t, 2);
+        for (int s = 0; s < 400; ++s) {
+          Float u = rng.next_float(), v = rng.next_float();
+          if (s < 3) {
+            u = s == 1;
+            v = s == 2;
+          } else if (s < 100) {
+            v = (s % 3 == 0) ? 0 : (s % 3 == 1 ? 1 - u : v);
+            if (s % 3 == 2) u = 0;
+          } else if (u + v > 1) {
+            u = 1 - u;
+            v = 1 - v;
+          }
+          // In double, rounded once, kept inside the triangle's box: within
+          // half a float spacing of the exact point of the triangle.
+          Point3f p;
+          for (int k = 0; k < 3; ++k) {
+            double x = double(a[k]) + (double(b[k]) - double(a[k])) * u + (double(c[k]) - double(a[k])) * v;
+            p[k] = std::clamp(Float(x), std::min({a[k], b[k], c[k]}), std::max({a[k], b[k], c[k]}));
+          }
+          bool in = false;
+          for (const Bounds3f& box : of[t]) in = in || box.inside(p);
+          uncovered += !in;
+        }
+      }
+      CHECK(missing == 0);
+      CHECK(outside == 0);
+      CHECK(uncovered == 0);
+    }
+}
+
+TEST_CASE("pre-split references do not depend on the thread count", "[accel][presplit]") {
+  PCG32 rng(22, 0x5b1);
+  TriangleMesh m = random_long(70000, rng);  // above parallel_chunk_count's one-chunk limit
+  detail::SplitReferences a = refs_of(m, 0.3f, 1);
+  for (int threads : {2, 3}) {
+    detail::SplitReferences b = refs_of(m, 0.3f, threads);
+    REQUIRE(a.tri.size() == b.tri.size());
+    CHECK(a.tri == b.tri);
+    CHECK(std::memcmp(a.bounds.data(), b.bounds.data(), a.bounds.size() * sizeof(Bounds3f)) == 0);
+  }
+  CHECK(a.tri.size() > m.triangle_count());
+}
+
+TEST_CASE("MeshAccel over pre-split triangles finds the hits of brute force", "[accel][presplit]") {
+  PCG32 rng(23, 0x5b1);
+  struct Case {
+    const char* name;
+    TriangleMesh mesh;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"sliver fan", sliver_fan(400, rng)});
+  cases.push_back({"ground and clutter", ground_and_clutter(600, rng)});
+  cases.push_back({"random long triangles", random_long(800, rng)});
+  for (const Case& c : cases)
+    for (float budget : {0.1f, 0.5f, 3.0f}) {
+      MeshAccel acc(c.mesh, with_budget(budget));
+      INFO(c.name << ", budget " << budget << ": " << acc.reference_count() << " references for "
+                  << c.mesh.triangle_count() << " triangles");
+      CHECK(acc.reference_count() > c.mesh.triangle_count());
+      int hits = 0;
+      CHECK(compare(c.mesh, acc, 1500, rng, &hits) == "");
+      CHECK(hits > 300);
+    }
+}
+
+TEST_CASE("a pre-split MeshAccel after refit gives the hits of a rebuild", "[accel][presplit][refit]") {
+  PCG32 rng(24, 0x5b1);
+  TriangleMesh m = random_long(1500, rng);
+  MeshAccel refitted(m, with_budget(0.5f));
+  for (Point3f& p : m.positions) p = p + Vector3f{std::sin(p.y), 0.5f * std::cos(p.z), uniform(rng, -1, 1)};
+  refitted.refit(m);
+  int hits = 0;
+  CHECK(compare(m, refitted, 1500, rng, &hits) == "");
+  CHECK(hits > 300);
+  MeshAccel rebuilt(m, with_budget(0.5f));
+  Bounds3f box;
+  for (const Point3f& p : m.positions) box = union_bounds(box, p);
+  size_t differ = 0;
+  for (int i = 0; i < 3000; ++i) {
+    TestRay r = random_ray(m, box, rng);
+    Float ta = infinity, tb = infinity;
+    TriangleHit ha{}, hb{};
+    uint32_t a = 0, b = 0;
+    bool hita = refitted.intersect(r.o, r.d, &ta, &ha, &a), hitb = rebuilt.intersect(r.o, r.d, &tb, &hb, &b);
+    if (hita != hitb || (hita && (ta != tb || a != b))) ++differ;
+  }
+  CHECK(differ == 0);
+}
+
+TEST_CASE("SceneAccel passes the split budget to its meshes and keeps triangle indices", "[accel][presplit]") {
+  PCG32 rng(25, 0x5b1);
+  TriangleMesh m = ground_and_clutter(300, rng);
+  SceneAccel plain, split;
+  for (SceneAccel* s : {&plain, &split}) {
+    s->add_mesh_instance(s->add_mesh(m));
+    s->add_mesh_instance(0, translate({1, 2, 3}));
+  }
+  plain.build();
+  split.build(with_budget(0.5f));
+  CHECK(split.mesh_accels()[0].reference_count() > m.triangle_count());
+  CHECK(plain.mesh_accels()[0].reference_count() == m.triangle_count());
+  size_t differ = 0;
+  for (int i = 0; i < 3000; ++i) {
+    Ray r{Point3f{uniform(rng, -25, 25), uniform(rng, 5, 10), uniform(rng, -25, 25)},
+          Vector3f{uniform(rng, -1, 1), -1, uniform(rng, -1, 1)}, 0};
+    auto a = plain.intersect(r), b = split.intersect(r);
+    if (a.has_value() != b.has_value()) ++differ;
+    if (a && b && (a->t != b->t || a->instance != b->instance || a->primitive != b->primitive)) ++differ;
+    if (a && split.occluded(r, infinity, a->instance, a->primitive) !=
+                 plain.occluded(r, infinity, a->instance, a->primitive))
+      ++differ;
+  }
+  CHECK(differ == 0);
+}
+
+TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel][presplit]") {
+  PCG32 rng(26, 0x5b1);
+  TriangleMesh m = random_long(10, rng);
+  CHECK_THROWS_AS(MeshAccel(m, with_budget(-0.5f)), Error);
+  CHECK_THROWS_AS(MeshAccel(m, with_budget(std::nanf(""))), Error);
+  CHECK_THROWS_AS(MeshAccel(m, with_budget(infinity)), Error);
+  CHECK_THROWS_AS(MeshAccel(m, with_budget(1e9f)), Error);  // more than 2^32 references
+  CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_budget(0.5f)));
+}
