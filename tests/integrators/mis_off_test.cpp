@@ -20,6 +20,20 @@ PathIntegrator nee_without_mis() {
   return PathIntegrator(o);
 }
 
+// Renders the scene with NEE + MIS (seed) and without MIS (seed + 1) and
+// checks that the two films agree region by region.
+void check_mis_off_agrees(const Scene<RGB>& scene, const PerspectiveCamera& cam, int w, int h, int spp,
+                          uint64_t seed) {
+  Film a(w, h), b(w, h);
+  RenderOptions opt;
+  opt.spp = spp;
+  opt.seed = seed;
+  render(scene, cam, PathIntegrator{}, a, opt);
+  opt.seed = seed + 1;
+  render(scene, cam, nee_without_mis(), b, opt);
+  check_regions_agree(a, b, 8, "MIS", "no MIS");
+}
+
 }  // namespace
 
 TEST_CASE("MIS is on by default", "[integrators][mis]") {
@@ -56,15 +70,7 @@ TEST_CASE("NEE without MIS agrees with NEE with MIS on the Cornell box", "[integ
   build_cornell_box(scene, diffuse_cornell_box_options());  // no caustics: the films' variance is complete
   scene.build();
   const int w = 32, h = 32;
-  PerspectiveCamera cam = default_camera(w, h);
-  Film a(w, h), b(w, h);
-  RenderOptions opt;
-  opt.spp = 256;
-  opt.seed = 41;
-  render(scene, cam, PathIntegrator{}, a, opt);
-  opt.seed = 42;
-  render(scene, cam, nee_without_mis(), b, opt);
-  check_regions_agree(a, b, 8, "MIS", "no MIS");
+  check_mis_off_agrees(scene, default_camera(w, h), w, h, 256, 41);
 }
 
 TEST_CASE("NEE without MIS agrees with NEE with MIS under an environment map with a sun",
@@ -80,12 +86,5 @@ TEST_CASE("NEE without MIS agrees with NEE with MIS under an environment map wit
   scene.build();
   const int w = 32, h = 16;
   PerspectiveCamera cam(look_at_camera_to_world({0, 0, 6}, {0, 0, 0}, {0, 1, 0}), radians(30), w, h);
-  Film a(w, h), b(w, h);
-  RenderOptions opt;
-  opt.spp = 512;
-  opt.seed = 51;
-  render(scene, cam, PathIntegrator{}, a, opt);
-  opt.seed = 52;
-  render(scene, cam, nee_without_mis(), b, opt);
-  check_regions_agree(a, b, 8, "MIS", "no MIS");
+  check_mis_off_agrees(scene, cam, w, h, 512, 51);
 }

@@ -500,10 +500,14 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
 // Starts loading a wide node that traversal has deferred, so that it is in
 // cache by the time the stack hands it back.
 inline void prefetch(const BVHWideNode* n) {
-  // Every cache line the node touches (a 72-byte node may straddle three).
+  // Every cache line the node touches. A node aligned to whole lines covers
+  // a fixed number of them (a loop the compiler unrolls: this runs per
+  // deferred child); a 72-byte node may straddle three.
+  constexpr bool whole_lines = alignof(BVHWideNode) % 64 == 0 && sizeof(BVHWideNode) % 64 == 0;
   uintptr_t first = reinterpret_cast<uintptr_t>(n) & ~uintptr_t(63);
-  uintptr_t last = (reinterpret_cast<uintptr_t>(n) + sizeof(BVHWideNode) - 1) & ~uintptr_t(63);
-  for (uintptr_t at = first; at <= last; at += 64) {
+  uintptr_t end = whole_lines ? first + sizeof(BVHWideNode)
+                              : ((reinterpret_cast<uintptr_t>(n) + sizeof(BVHWideNode) - 1) & ~uintptr_t(63)) + 64;
+  for (uintptr_t at = first; at < end; at += 64) {
     const char* line = reinterpret_cast<const char*>(at);
 #if defined(PRISM_BVH_SSE)
     _mm_prefetch(line, _MM_HINT_T0);
