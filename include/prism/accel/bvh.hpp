@@ -17,9 +17,11 @@
 // Traversal runs on a second layout derived from the binary tree: nodes with
 // up to eight children whose boxes sit side by side (as in Embree's BVH8), so
 // one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
-// makes a fraction of the binary tree's visits and cache misses. Each lane's
-// box test is exactly intersect_node's, so a ray reaches the same primitives
-// as through the binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
+// makes a fraction of the binary tree's visits and cache misses. Which binary
+// nodes a wide node gathers is chosen for the least SAH cost of the whole
+// layout (BVH::wide_children). Each lane's box test is exactly
+// intersect_node's, so a ray reaches the same primitives as through the
+// binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
 // boxes quantized to bytes, rounded outward (half the node size; see
 // BVHQuantWideNode): a ray then reaches a superset of those primitives.
 #pragma once
@@ -1125,37 +1127,102 @@ class BVH {
     });
   }
 
-  // The children of the wide node for binary node `bin`: starting from its two
-  // children, the inner child with the largest surface area is replaced by its
-  // own children until there are wide_width of them, or only leaves.
-  int wide_children(uint32_t bin, uint32_t* kids) const {
+  // Which binary nodes become the slots of each wide node: the collapse with
+  // the least SAH cost (after Ylitie, Karras and Laine 2017, "Efficient
+  // incoherent ray traversal on GPUs through compressed wide BVHs"), found by
+  // dynamic programming over the binary tree. The binary leaves are kept
+  // whole, so every collapse has the same leaves and the SAH cost differs only
+  // in its wide nodes: the collapse minimises the sum of the wide nodes' box
+  // areas (the expected visits of a ray), whatever a visit costs. For binary
+  // node n and j = 1..W, cost[j - 1] is the least sum of the wide nodes'
+  // areas in a cover of n's subtree by at most j slots of a wide node, and
+  // the cover splits them as first[j - 1] for n's first child and
+  // second[j - 1] for its second (first[j - 1] == 0: n itself is one slot, a
+  // leaf or a wide node of its own).
+  struct CollapseCost {
+    Float cost[detail::wide_width];
+    uint8_t first[detail::wide_width], second[detail::wide_width];
+  };
+
+  // The best split of `slots` slots between the two children of interior
+  // node n (each child gets at least one; the first of equal costs wins).
+  std::pair<int, Float> best_split(uint32_t n, int slots) const {
+    const CollapseCost& a = m_collapse[n + 1];
+    const CollapseCost& b = m_collapse[m_nodes[n].offset];
+    int best = 1;
+    Float best_cost = infinity;
+    for (int k = 1; k < slots; ++k) {
+      Float c = a.cost[k - 1] + b.cost[slots - k - 1];
+      if (c < best_cost) {
+        best_cost = c;
+        best = k;
+      }
+    }
+    return {best, best_cost};
+  }
+
+  // Fills m_collapse[n] from its children's entries.
+  void collapse_cost(uint32_t n) {
     constexpr int W = detail::wide_width;
+    const BVHNode& nd = m_nodes[n];
+    CollapseCost& cc = m_collapse[n];
+    if (nd.is_leaf()) {
+      for (int j = 0; j < W; ++j) {
+        cc.cost[j] = 0;
+        cc.first[j] = cc.second[j] = 0;
+      }
+      return;
+    }
+    // One slot: n as a wide node, whose own W slots are split between its children.
+    cc.cost[0] = nd.bounds().surface_area() + best_split(n, W).second;
+    cc.first[0] = cc.second[0] = 0;
+    for (int j = 2; j <= W; ++j) {
+      auto [k, c] = best_split(n, j);
+      if (c < cc.cost[j - 2]) {
+        cc.cost[j - 1] = c;
+        cc.first[j - 1] = uint8_t(k);
+        cc.second[j - 1] = uint8_t(j - k);
+      } else {  // fewer slots do as well
+        cc.cost[j - 1] = cc.cost[j - 2];
+        cc.first[j - 1] = cc.first[j - 2];
+        cc.second[j - 1] = cc.second[j - 2];
+      }
+    }
+  }
+  // Fills m_collapse for the subtree of n, children first, down to binary
+  // depth `stop`, where a frontier node goes to `frontier` (if given) or is
+  // taken as filled already.
+  void collapse_costs(uint32_t n, int depth, int stop, std::vector<uint32_t>* frontier) {
+    if (depth == stop) {
+      if (frontier) frontier->push_back(n);
+      return;
+    }
+    if (!m_nodes[n].is_leaf()) {
+      collapse_costs(n + 1, depth + 1, stop, frontier);
+      collapse_costs(m_nodes[n].offset, depth + 1, stop, frontier);
+    }
+    if (!frontier) collapse_cost(n);
+  }
+  // Appends the slots of the best cover of n's subtree by at most j slots.
+  void cover(uint32_t n, int j, uint32_t* kids, int& k) const {
+    const CollapseCost& cc = m_collapse[n];
+    if (cc.first[j - 1] == 0) {
+      kids[k++] = n;
+      return;
+    }
+    cover(n + 1, cc.first[j - 1], kids, k);
+    cover(m_nodes[n].offset, cc.second[j - 1], kids, k);
+  }
+  // The children of the wide node for binary node `bin`.
+  int wide_children(uint32_t bin, uint32_t* kids) const {
     if (m_nodes[bin].is_leaf()) {
       kids[0] = bin;  // only for a tree that is a single leaf
       return 1;
     }
-    Float area[W];
+    int first = best_split(bin, detail::wide_width).first;
     int k = 0;
-    auto add = [&](uint32_t c, int slot) {
-      kids[slot] = c;
-      area[slot] = m_nodes[c].is_leaf() ? -1 : m_nodes[c].bounds().surface_area();
-    };
-    add(bin + 1, k++);
-    add(m_nodes[bin].offset, k++);
-    while (k < W) {
-      int best = -1;
-      Float best_area = -1;
-      for (int i = 0; i < k; ++i) {
-        if (area[i] > best_area) {
-          best_area = area[i];
-          best = i;
-        }
-      }
-      if (best < 0) break;
-      uint32_t c = kids[best];
-      add(c + 1, best);
-      add(m_nodes[c].offset, k++);
-    }
+    cover(bin + 1, first, kids, k);
+    cover(m_nodes[bin].offset, detail::wide_width - first, kids, k);
     return k;
   }
 
@@ -1168,6 +1235,13 @@ class BVH {
   void collapse_all(int threads) {
     m_wide.clear();
     if (m_nodes.empty()) return;
+    // The collapse costs: subtrees below binary depth 8 in parallel, then the top.
+    m_collapse.resize(m_nodes.size());
+    constexpr int cost_levels = 8;
+    std::vector<uint32_t> roots;
+    collapse_costs(0, 0, cost_levels, &roots);
+    detail::parallel_items(roots.size(), threads, [&](size_t i) { collapse_costs(roots[i], 0, -1, nullptr); });
+    collapse_costs(0, 0, cost_levels, nullptr);
     constexpr int top_levels = 3;
     std::vector<uint32_t> size(m_nodes.size());  // wide nodes in the subtree of a wide root, by binary index
     std::vector<uint32_t> frontier;
@@ -1180,6 +1254,7 @@ class BVH {
     write_wide(0, 0, 0, top_levels, size, &jobs);
     detail::parallel_items(jobs.size(), threads,
                            [&](size_t i) { write_wide(jobs[i].first, jobs[i].second, 0, -1, size, nullptr); });
+    m_collapse = {};
   }
   // The number of wide nodes under wide root `bin`, stored in size[bin]. At
   // wide depth `stop` it stops: a frontier root is appended to `frontier`
@@ -1232,6 +1307,7 @@ class BVH {
   std::vector<BVHNode> m_nodes;
   std::vector<uint32_t> m_prims;
   std::vector<detail::BVHWideNode> m_wide;  // traversal layout, derived from m_nodes
+  std::vector<CollapseCost> m_collapse;     // during collapse_all only
 };
 
 }  // namespace prism
