@@ -185,3 +185,16 @@ TEST_CASE("The collapse beats gathering the largest child first", "[accel][bvh][
     SUCCEED("quantized boxes are looser than the binary ones: the cost is checked on float nodes");
   }
 }
+
+TEST_CASE("Boxes without area still fill the wide nodes", "[accel][bvh][collapse]") {
+  // Every collapse of point boxes costs 0; ties go to the cover with more
+  // slots, so the wide nodes are not left with two children each (which
+  // would be as many wide nodes as inner binary nodes).
+  std::vector<Bounds3f> boxes(4000, Bounds3f(Point3f{1, 2, 3}));
+  BVH bvh = BVH::build(boxes);
+  size_t inner = 0;
+  for (const auto& nd : bvh.nodes()) inner += nd.is_leaf() ? 0 : 1;
+  INFO(inner << " inner binary nodes, " << bvh.wide_node_count() << " wide nodes");
+  REQUIRE(inner > 100);
+  CHECK(bvh.wide_node_count() * 3 <= inner);
+}

@@ -1138,27 +1138,35 @@ class BVH {
   // areas in a cover of n's subtree by at most j slots of a wide node, and
   // the cover splits them as first[j - 1] for n's first child and
   // second[j - 1] for its second (first[j - 1] == 0: n itself is one slot, a
-  // leaf or a wide node of its own).
+  // leaf or a wide node of its own). Of covers with equal cost, the one with
+  // fewer wide nodes (nodes[j - 1]) wins: all costs tie when the boxes have no
+  // area, and the wide nodes should still be full then.
   struct CollapseCost {
     Float cost[detail::wide_width];
+    uint32_t nodes[detail::wide_width];
     uint8_t first[detail::wide_width], second[detail::wide_width];
+  };
+  struct Cover {
+    Float cost;
+    uint32_t nodes;
+    bool operator<(const Cover& o) const { return cost < o.cost || (cost == o.cost && nodes < o.nodes); }
   };
 
   // The best split of `slots` slots between the two children of interior
-  // node n (each child gets at least one; the first of equal costs wins).
-  std::pair<int, Float> best_split(uint32_t n, int slots) const {
+  // node n (each child gets at least one; the first of equal covers wins).
+  std::pair<int, Cover> best_split(uint32_t n, int slots) const {
     const CollapseCost& a = m_collapse[n + 1];
     const CollapseCost& b = m_collapse[m_nodes[n].offset];
     int best = 1;
-    Float best_cost = infinity;
+    Cover best_cover{infinity, UINT32_MAX};
     for (int k = 1; k < slots; ++k) {
-      Float c = a.cost[k - 1] + b.cost[slots - k - 1];
-      if (c < best_cost) {
-        best_cost = c;
+      Cover c{a.cost[k - 1] + b.cost[slots - k - 1], a.nodes[k - 1] + b.nodes[slots - k - 1]};
+      if (c < best_cover) {
+        best_cover = c;
         best = k;
       }
     }
-    return {best, best_cost};
+    return {best, best_cover};
   }
 
   // Fills m_collapse[n] from its children's entries.
@@ -1169,21 +1177,26 @@ class BVH {
     if (nd.is_leaf()) {
       for (int j = 0; j < W; ++j) {
         cc.cost[j] = 0;
+        cc.nodes[j] = 0;
         cc.first[j] = cc.second[j] = 0;
       }
       return;
     }
     // One slot: n as a wide node, whose own W slots are split between its children.
-    cc.cost[0] = nd.bounds().surface_area() + best_split(n, W).second;
+    Cover own = best_split(n, W).second;
+    cc.cost[0] = nd.bounds().surface_area() + own.cost;
+    cc.nodes[0] = own.nodes + 1;
     cc.first[0] = cc.second[0] = 0;
     for (int j = 2; j <= W; ++j) {
       auto [k, c] = best_split(n, j);
-      if (c < cc.cost[j - 2]) {
-        cc.cost[j - 1] = c;
+      if (c < Cover{cc.cost[j - 2], cc.nodes[j - 2]}) {
+        cc.cost[j - 1] = c.cost;
+        cc.nodes[j - 1] = c.nodes;
         cc.first[j - 1] = uint8_t(k);
         cc.second[j - 1] = uint8_t(j - k);
       } else {  // fewer slots do as well
         cc.cost[j - 1] = cc.cost[j - 2];
+        cc.nodes[j - 1] = cc.nodes[j - 2];
         cc.first[j - 1] = cc.first[j - 2];
         cc.second[j - 1] = cc.second[j - 2];
       }
