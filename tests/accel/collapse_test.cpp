@@ -105,6 +105,23 @@ Float layout_cost(const BVH& bvh, size_t* leaf_lanes, size_t* leaf_prims) {
   return cost;
 }
 
+// The binary tree's leaves, inner nodes and the primitives in its leaves.
+struct TreeCounts {
+  size_t leaves = 0, inner = 0, prims = 0;
+};
+TreeCounts count_nodes(const std::vector<BVHNode>& nodes) {
+  TreeCounts c;
+  for (const auto& nd : nodes) {
+    if (nd.is_leaf()) {
+      ++c.leaves;
+      c.prims += nd.count;
+    } else {
+      ++c.inner;
+    }
+  }
+  return c;
+}
+
 }  // namespace
 
 TEST_CASE("The wide layout is the collapse with the least SAH cost", "[accel][bvh][collapse]") {
@@ -131,14 +148,9 @@ TEST_CASE("The wide layout is the collapse with the least SAH cost", "[accel][bv
       // Sums of the same terms in another order: a few ulps apart.
       CHECK(got == Approx(best).epsilon(1e-5));
       // Every binary leaf is one wide lane, holding all its primitives once.
-      size_t bin_leaves = 0, bin_prims = 0;
-      for (const auto& nd : nodes)
-        if (nd.is_leaf()) {
-          ++bin_leaves;
-          bin_prims += nd.count;
-        }
-      CHECK(leaf_lanes == bin_leaves);
-      CHECK(leaf_prims == bin_prims);
+      TreeCounts bin = count_nodes(nodes);
+      CHECK(leaf_lanes == bin.leaves);
+      CHECK(leaf_prims == bin.prims);
       ++checked;
     }
     CHECK(checked >= 10);
@@ -192,8 +204,7 @@ TEST_CASE("Boxes without area still fill the wide nodes", "[accel][bvh][collapse
   // half as many wide nodes as inner binary nodes).
   std::vector<Bounds3f> boxes(4000, Bounds3f(Point3f{1, 2, 3}));
   BVH bvh = BVH::build(boxes);
-  size_t inner = 0;
-  for (const auto& nd : bvh.nodes()) inner += nd.is_leaf() ? 0 : 1;
+  size_t inner = count_nodes(bvh.nodes()).inner;
   INFO(inner << " inner binary nodes, " << bvh.wide_node_count() << " wide nodes");
   REQUIRE(inner > 100);
   // A wide node takes in at most W - 1 inner binary nodes: the least count

@@ -19,7 +19,7 @@
 // one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
 // makes a fraction of the binary tree's visits and cache misses. Which binary
 // nodes a wide node gathers is chosen for the least SAH cost of the whole
-// layout (BVH::wide_children). Each lane's box test is exactly
+// layout (BVH::Collapse). Each lane's box test is exactly
 // intersect_node's, so a ray reaches the same primitives as through the
 // binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
 // boxes quantized to bytes, rounded outward (half the node size; see
@@ -1133,111 +1133,131 @@ class BVH {
   // dynamic programming over the binary tree. The binary leaves are kept
   // whole, so every collapse has the same leaves and the SAH cost differs only
   // in its wide nodes: the collapse minimises the sum of the wide nodes' box
-  // areas (the expected visits of a ray), whatever a visit costs. For binary
-  // node n and j = 1..W, cost[j - 1] is the least sum of the wide nodes'
-  // areas in a cover of n's subtree by at most j slots of a wide node, and
-  // the cover splits them as first[j - 1] for n's first child and
-  // second[j - 1] for its second (first[j - 1] == 0: n itself is one slot, a
-  // leaf or a wide node of its own). Of covers with equal cost, the one with
-  // fewer wide nodes (nodes[j - 1]) wins: all costs tie when the boxes have no
-  // area, and the wide nodes should still be full then.
-  struct CollapseCost {
-    Float cost[detail::wide_width];
-    uint32_t nodes[detail::wide_width];
-    uint8_t first[detail::wide_width], second[detail::wide_width];
-  };
-  struct Cover {
-    Float cost;
-    uint32_t nodes;
-    bool operator<(const Cover& o) const { return cost < o.cost || (cost == o.cost && nodes < o.nodes); }
-  };
+  // areas (the expected visits of a ray), whatever a visit costs. Of covers
+  // with equal cost, the one with fewer wide nodes wins: all costs tie when
+  // the boxes have no area, and the wide nodes should still be full then.
+  class Collapse {
+   public:
+    // The costs of every binary node: subtrees below binary depth 8 in
+    // parallel, then the top.
+    Collapse(const std::vector<BVHNode>& nodes, int threads) : m_nodes(nodes), m_cost(nodes.size()) {
+      constexpr int cost_levels = 8;
+      std::vector<uint32_t> roots;
+      fill(0, 0, cost_levels, &roots);
+      detail::parallel_items(roots.size(), threads, [&](size_t i) { fill(roots[i], 0, -1, nullptr); });
+      fill(0, 0, cost_levels, nullptr);
+    }
+    // The slots of the wide node for binary node `bin`, in lane order.
+    int children(uint32_t bin, uint32_t* kids) const {
+      if (m_nodes[bin].is_leaf()) {
+        kids[0] = bin;  // only for a tree that is a single leaf
+        return 1;
+      }
+      int first = m_cost[bin].own_first;
+      int k = 0;
+      cover(bin + 1, first, kids, k);
+      cover(m_nodes[bin].offset, detail::wide_width - first, kids, k);
+      return k;
+    }
 
-  // The best split of `slots` slots between the two children of interior
-  // node n (each child gets at least one; the first of equal covers wins).
-  std::pair<int, Cover> best_split(uint32_t n, int slots) const {
-    const CollapseCost& a = m_collapse[n + 1];
-    const CollapseCost& b = m_collapse[m_nodes[n].offset];
-    int best = 1;
-    Cover best_cover{infinity, UINT32_MAX};
-    for (int k = 1; k < slots; ++k) {
-      Cover c{a.cost[k - 1] + b.cost[slots - k - 1], a.nodes[k - 1] + b.nodes[slots - k - 1]};
-      if (c < best_cover) {
-        best_cover = c;
-        best = k;
-      }
-    }
-    return {best, best_cover};
-  }
+   private:
+    // For binary node n and j = 1..W, cost[j - 1] is the least sum of the
+    // wide nodes' areas in a cover of n's subtree by at most j slots of a
+    // wide node, with nodes[j - 1] wide nodes; the cover gives first[j - 1]
+    // slots to n's first child and second[j - 1] to its second (first[j - 1]
+    // == 0: n itself is one slot, a leaf or a wide node of its own). When n
+    // is a wide node of its own, own_first of its W slots go to its first child.
+    struct Cost {
+      Float cost[detail::wide_width];
+      uint32_t nodes[detail::wide_width];
+      uint8_t first[detail::wide_width], second[detail::wide_width];
+      uint8_t own_first;
+    };
+    struct Cover {
+      Float cost;
+      uint32_t nodes;
+      bool operator<(const Cover& o) const { return cost < o.cost || (cost == o.cost && nodes < o.nodes); }
+    };
 
-  // Fills m_collapse[n] from its children's entries.
-  void collapse_cost(uint32_t n) {
-    constexpr int W = detail::wide_width;
-    const BVHNode& nd = m_nodes[n];
-    CollapseCost& cc = m_collapse[n];
-    if (nd.is_leaf()) {
-      for (int j = 0; j < W; ++j) {
-        cc.cost[j] = 0;
-        cc.nodes[j] = 0;
-        cc.first[j] = cc.second[j] = 0;
+    // The best split of `slots` slots between the two children of interior
+    // node n (each child gets at least one; the first of equal covers wins).
+    std::pair<int, Cover> best_split(uint32_t n, int slots) const {
+      const Cost& a = m_cost[n + 1];
+      const Cost& b = m_cost[m_nodes[n].offset];
+      int best = 1;
+      Cover best_cover{infinity, UINT32_MAX};
+      for (int k = 1; k < slots; ++k) {
+        Cover c{a.cost[k - 1] + b.cost[slots - k - 1], a.nodes[k - 1] + b.nodes[slots - k - 1]};
+        if (c < best_cover) {
+          best_cover = c;
+          best = k;
+        }
       }
-      return;
+      return {best, best_cover};
     }
-    // One slot: n as a wide node, whose own W slots are split between its children.
-    Cover own = best_split(n, W).second;
-    cc.cost[0] = nd.bounds().surface_area() + own.cost;
-    cc.nodes[0] = own.nodes + 1;
-    cc.first[0] = cc.second[0] = 0;
-    for (int j = 2; j <= W; ++j) {
-      auto [k, c] = best_split(n, j);
-      if (c < Cover{cc.cost[j - 2], cc.nodes[j - 2]}) {
-        cc.cost[j - 1] = c.cost;
-        cc.nodes[j - 1] = c.nodes;
-        cc.first[j - 1] = uint8_t(k);
-        cc.second[j - 1] = uint8_t(j - k);
-      } else {  // fewer slots do as well
-        cc.cost[j - 1] = cc.cost[j - 2];
-        cc.nodes[j - 1] = cc.nodes[j - 2];
-        cc.first[j - 1] = cc.first[j - 2];
-        cc.second[j - 1] = cc.second[j - 2];
+    // Fills m_cost[n] from its children's entries.
+    void cost_of(uint32_t n) {
+      constexpr int W = detail::wide_width;
+      const BVHNode& nd = m_nodes[n];
+      Cost& cc = m_cost[n];
+      if (nd.is_leaf()) {
+        for (int j = 0; j < W; ++j) {
+          cc.cost[j] = 0;
+          cc.nodes[j] = 0;
+          cc.first[j] = cc.second[j] = 0;
+        }
+        cc.own_first = 0;
+        return;
+      }
+      // One slot: n as a wide node, whose own W slots are split between its children.
+      auto [own_first, own] = best_split(n, W);
+      cc.own_first = uint8_t(own_first);
+      cc.cost[0] = nd.bounds().surface_area() + own.cost;
+      cc.nodes[0] = own.nodes + 1;
+      cc.first[0] = cc.second[0] = 0;
+      for (int j = 2; j <= W; ++j) {
+        auto [k, c] = j == W ? std::pair<int, Cover>{own_first, own} : best_split(n, j);
+        if (c < Cover{cc.cost[j - 2], cc.nodes[j - 2]}) {
+          cc.cost[j - 1] = c.cost;
+          cc.nodes[j - 1] = c.nodes;
+          cc.first[j - 1] = uint8_t(k);
+          cc.second[j - 1] = uint8_t(j - k);
+        } else {  // fewer slots do as well
+          cc.cost[j - 1] = cc.cost[j - 2];
+          cc.nodes[j - 1] = cc.nodes[j - 2];
+          cc.first[j - 1] = cc.first[j - 2];
+          cc.second[j - 1] = cc.second[j - 2];
+        }
       }
     }
-  }
-  // Fills m_collapse for the subtree of n, children first, down to binary
-  // depth `stop`, where a frontier node goes to `frontier` (if given) or is
-  // taken as filled already.
-  void collapse_costs(uint32_t n, int depth, int stop, std::vector<uint32_t>* frontier) {
-    if (depth == stop) {
-      if (frontier) frontier->push_back(n);
-      return;
+    // Fills m_cost for the subtree of n, children first, down to binary depth
+    // `stop`, where a frontier node goes to `frontier` (if given) or is taken
+    // as filled already.
+    void fill(uint32_t n, int depth, int stop, std::vector<uint32_t>* frontier) {
+      if (depth == stop) {
+        if (frontier) frontier->push_back(n);
+        return;
+      }
+      if (!m_nodes[n].is_leaf()) {
+        fill(n + 1, depth + 1, stop, frontier);
+        fill(m_nodes[n].offset, depth + 1, stop, frontier);
+      }
+      if (!frontier) cost_of(n);
     }
-    if (!m_nodes[n].is_leaf()) {
-      collapse_costs(n + 1, depth + 1, stop, frontier);
-      collapse_costs(m_nodes[n].offset, depth + 1, stop, frontier);
+    // Appends the slots of the best cover of n's subtree by at most j slots.
+    void cover(uint32_t n, int j, uint32_t* kids, int& k) const {
+      const Cost& cc = m_cost[n];
+      if (cc.first[j - 1] == 0) {
+        kids[k++] = n;
+        return;
+      }
+      cover(n + 1, cc.first[j - 1], kids, k);
+      cover(m_nodes[n].offset, cc.second[j - 1], kids, k);
     }
-    if (!frontier) collapse_cost(n);
-  }
-  // Appends the slots of the best cover of n's subtree by at most j slots.
-  void cover(uint32_t n, int j, uint32_t* kids, int& k) const {
-    const CollapseCost& cc = m_collapse[n];
-    if (cc.first[j - 1] == 0) {
-      kids[k++] = n;
-      return;
-    }
-    cover(n + 1, cc.first[j - 1], kids, k);
-    cover(m_nodes[n].offset, cc.second[j - 1], kids, k);
-  }
-  // The children of the wide node for binary node `bin`.
-  int wide_children(uint32_t bin, uint32_t* kids) const {
-    if (m_nodes[bin].is_leaf()) {
-      kids[0] = bin;  // only for a tree that is a single leaf
-      return 1;
-    }
-    int first = best_split(bin, detail::wide_width).first;
-    int k = 0;
-    cover(bin + 1, first, kids, k);
-    cover(m_nodes[bin].offset, detail::wide_width - first, kids, k);
-    return k;
-  }
+
+    const std::vector<BVHNode>& m_nodes;
+    std::vector<Cost> m_cost;
+  };
 
   // Derives the wide layout from the binary tree. The wide node of binary
   // node `bin` is followed by the wide subtrees of its inner children, in lane
@@ -1248,47 +1268,43 @@ class BVH {
   void collapse_all(int threads) {
     m_wide.clear();
     if (m_nodes.empty()) return;
-    // The collapse costs: subtrees below binary depth 8 in parallel, then the top.
-    m_collapse.resize(m_nodes.size());
-    constexpr int cost_levels = 8;
-    std::vector<uint32_t> roots;
-    collapse_costs(0, 0, cost_levels, &roots);
-    detail::parallel_items(roots.size(), threads, [&](size_t i) { collapse_costs(roots[i], 0, -1, nullptr); });
-    collapse_costs(0, 0, cost_levels, nullptr);
+    const Collapse plan(m_nodes, threads);
     constexpr int top_levels = 3;
     std::vector<uint32_t> size(m_nodes.size());  // wide nodes in the subtree of a wide root, by binary index
     std::vector<uint32_t> frontier;
-    wide_size(0, 0, top_levels, size, &frontier);  // only gathers the frontier
-    detail::parallel_items(frontier.size(), threads, [&](size_t i) { wide_size(frontier[i], 0, -1, size, nullptr); });
-    uint32_t total = wide_size(0, 0, top_levels, size, nullptr);
+    wide_size(plan, 0, 0, top_levels, size, &frontier);  // only gathers the frontier
+    detail::parallel_items(frontier.size(), threads,
+                           [&](size_t i) { wide_size(plan, frontier[i], 0, -1, size, nullptr); });
+    uint32_t total = wide_size(plan, 0, 0, top_levels, size, nullptr);
     detail::reserve_huge(m_wide, total);
     m_wide.resize(total);
     std::vector<std::pair<uint32_t, uint32_t>> jobs;  // (binary node, wide index) at the frontier
-    write_wide(0, 0, 0, top_levels, size, &jobs);
-    detail::parallel_items(jobs.size(), threads,
-                           [&](size_t i) { write_wide(jobs[i].first, jobs[i].second, 0, -1, size, nullptr); });
-    m_collapse = {};
+    write_wide(plan, 0, 0, 0, top_levels, size, &jobs);
+    detail::parallel_items(jobs.size(), threads, [&](size_t i) {
+      write_wide(plan, jobs[i].first, jobs[i].second, 0, -1, size, nullptr);
+    });
   }
   // The number of wide nodes under wide root `bin`, stored in size[bin]. At
   // wide depth `stop` it stops: a frontier root is appended to `frontier`
   // when given, and its stored size is used.
-  uint32_t wide_size(uint32_t bin, int depth, int stop, std::vector<uint32_t>& size,
+  uint32_t wide_size(const Collapse& plan, uint32_t bin, int depth, int stop, std::vector<uint32_t>& size,
                      std::vector<uint32_t>* frontier) const {
     if (depth == stop) {
       if (frontier) frontier->push_back(bin);
       return size[bin];
     }
     uint32_t kids[detail::wide_width];
-    int k = wide_children(bin, kids);
+    int k = plan.children(bin, kids);
     uint32_t total = 1;
     for (int l = 0; l < k; ++l)
-      if (!m_nodes[kids[l]].is_leaf()) total += wide_size(kids[l], depth + 1, stop, size, frontier);
+      if (!m_nodes[kids[l]].is_leaf()) total += wide_size(plan, kids[l], depth + 1, stop, size, frontier);
     size[bin] = total;
     return total;
   }
   // Writes the wide node of `bin` at index w and its subtree after it, down to
   // wide depth `stop`, where the frontier's (root, index) pairs go to `jobs`.
-  void write_wide(uint32_t bin, uint32_t w, int depth, int stop, const std::vector<uint32_t>& size,
+  void write_wide(const Collapse& plan, uint32_t bin, uint32_t w, int depth, int stop,
+                  const std::vector<uint32_t>& size,
                   std::vector<std::pair<uint32_t, uint32_t>>* jobs) {
     if (depth == stop) {
       jobs->emplace_back(bin, w);
@@ -1296,7 +1312,7 @@ class BVH {
     }
     constexpr int W = detail::wide_width;
     uint32_t kids[W];
-    int k = wide_children(bin, kids);
+    int k = plan.children(bin, kids);
     Bounds3f boxes[W];
     for (int l = 0; l < k; ++l) boxes[l] = m_nodes[kids[l]].bounds();
     detail::BVHWideNode node;
@@ -1310,7 +1326,7 @@ class BVH {
       } else {
         node.child[l] = next;
         node.count[l] = detail::BVHWideNode::interior;
-        write_wide(kids[l], next, depth + 1, stop, size, jobs);
+        write_wide(plan, kids[l], next, depth + 1, stop, size, jobs);
         next += size[kids[l]];
       }
     }
@@ -1320,7 +1336,6 @@ class BVH {
   std::vector<BVHNode> m_nodes;
   std::vector<uint32_t> m_prims;
   std::vector<detail::BVHWideNode> m_wide;  // traversal layout, derived from m_nodes
-  std::vector<CollapseCost> m_collapse;     // during collapse_all only
 };
 
 }  // namespace prism
