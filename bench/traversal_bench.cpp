@@ -26,8 +26,8 @@
 //                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
 //                        [--split-budget F]
 // Second code-built case, "slivers" (make_sliver_scene): long thin triangles
-// where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget)
-// should pay.
+// where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget,
+// on by default for slivers only) pays.
 // --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
 // stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
@@ -678,7 +678,7 @@ struct Options {
   int record_res = 512;  // the recording render: record_res^2 pixels at record_spp
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
-  float split_budget = 0;       // BVHBuildOptions::split_budget of prism's builds
+  float split_budget = BVHBuildOptions{}.split_budget;  // of prism's mesh builds (the library's default)
 };
 
 struct InstanceRow {
@@ -971,8 +971,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
-                   "       [--split-budget F (prism's BVHBuildOptions::split_budget, default 0)]\n",
-                   argv[0]);
+                   "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n",
+                   argv[0], double(BVHBuildOptions{}.split_budget));
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }

@@ -136,7 +136,7 @@ struct Job {
   bool force_full = false;        // --instantiation full
   bool colour_auto = false;       // neither --rgb nor --spectral: the scene decides
   std::string default_scene = "cornell";
-  float split_budget = 0;         // --split-budget: BVHBuildOptions::split_budget
+  float split_budget = prism::BVHBuildOptions{}.split_budget;  // --split-budget: BVHBuildOptions::split_budget
   std::string instantiation;      // the summary's instantiation line
 };
 
@@ -489,8 +489,8 @@ int run(int argc, char** argv) {
                  "cornell-diffuse (its diffuse walls, boxes and a white sphere only)")
       ->check(CLI::IsMember({"cornell", "cornell-diffuse"}));
   app.add_option("--split-budget", job.split_budget,
-                 "Triangle pre-splitting: extra BVH references as a fraction of the triangles (0: off; "
-                 "0.3 pays on long thin triangles, docs/performance.md)")
+                 "Triangle pre-splitting: extra BVH references as a fraction of the triangles, spent on long "
+                 "thin or large diagonal slivers only (0: off; default 0.3; docs/performance.md)")
       ->check(CLI::Range(0.f, 16.f));
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)

@@ -3,7 +3,9 @@
 // budget; the references do not depend on the thread count; MeshAccel built
 // over them finds bit for bit the hits of brute force (closest hit, any hit,
 // any hit skipping a triangle) on meshes of long thin triangles, also after a
-// refit; SceneAccel passes the budget on; a bad budget is refused.
+// refit; SceneAccel passes the budget on; by default a mesh of well-shaped
+// triangles is built exactly as without splitting, and only triangles past
+// the threshold are cut, within their caps; a bad budget or threshold is refused.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -46,14 +48,18 @@ TriangleMesh sliver_fan(int n, PCG32& rng) {
   return m;
 }
 
-// A large ground quad (two triangles, rotated about the vertical so that its
-// box is loose) with n small random triangles just above it.
+// A large ground square cut into 80 strips 40 x 0.5 (two triangles each),
+// rotated about the vertical so that their boxes are loose (box area about 60
+// times the triangle's), with n small random triangles just above it.
 TriangleMesh ground_and_clutter(int n, PCG32& rng) {
   TriangleMesh m;
   Float c = std::cos(0.4f), s = std::sin(0.4f);
   auto g = [&](Float x, Float y) { return Point3f{c * x - s * y, 0.01f * x, s * x + c * y}; };
-  add_tri(m, g(-20, -20), g(20, -20), g(20, 20));
-  add_tri(m, g(-20, -20), g(20, 20), g(-20, 20));
+  for (int k = 0; k < 80; ++k) {
+    Float y0 = -20 + 0.5f * Float(k), y1 = y0 + 0.5f;
+    add_tri(m, g(-20, y0), g(20, y0), g(20, y1));
+    add_tri(m, g(-20, y0), g(20, y1), g(-20, y1));
+  }
   for (int i = 0; i < n; ++i) {
     Vector3f p{uniform(rng, -15, 15), uniform(rng, 0.2f, 2), uniform(rng, -15, 15)};
     for (int k = 0; k < 3; ++k) m.positions.push_back(Point3f(p + random_unit(rng) * 0.3f));
@@ -177,7 +183,7 @@ detail::SplitReferences refs_of(const TriangleMesh& m, float budget, int threads
       [&](size_t i, Point3f* v) {
         for (int k = 0; k < 3; ++k) v[k] = vtx(m, uint32_t(i), k);
       },
-      budget, threads);
+      budget, BVHBuildOptions{}.split_threshold, threads);
 }
 
 }  // namespace
@@ -306,7 +312,7 @@ TEST_CASE("SceneAccel passes the split budget to its meshes and keeps triangle i
     s->add_mesh_instance(s->add_mesh(m));
     s->add_mesh_instance(0, translate({1, 2, 3}));
   }
-  plain.build();
+  plain.build(with_budget(0));
   split.build(with_budget(0.5f));
   CHECK(split.mesh_accels()[0].reference_count() > m.triangle_count());
   CHECK(plain.mesh_accels()[0].reference_count() == m.triangle_count());
@@ -324,6 +330,82 @@ TEST_CASE("SceneAccel passes the split budget to its meshes and keeps triangle i
   CHECK(differ == 0);
 }
 
+TEST_CASE("by default pre-splitting leaves a mesh of well-shaped triangles alone", "[accel][presplit]") {
+  // Near-equilateral triangles in random orientations: box area 2 to about 7
+  // times twice the triangle's area, below the default threshold of 32.
+  PCG32 rng(27, 0x5b1);
+  TriangleMesh m;
+  for (int i = 0; i < 4000; ++i) {
+    Point3f c{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    Vector3f u = random_unit(rng), n = random_unit(rng);
+    Vector3f v = normalize(cross(n, u));
+    u = cross(v, normalize(n));
+    Float r = std::exp2(uniform(rng, -4, 1));
+    Point3f p[3];
+    for (int k = 0; k < 3; ++k) {
+      Float a = 2 * pi * Float(k) / 3 + uniform(rng, -0.3f, 0.3f);
+      p[k] = c + (u * std::cos(a) + v * std::sin(a)) * r;
+    }
+    add_tri(m, p[0], p[1], p[2]);
+  }
+  MeshAccel by_default(m, BVHBuildOptions{}), off(m, with_budget(0));
+  CHECK(BVHBuildOptions{}.split_budget > 0);
+  CHECK(by_default.reference_count() == m.triangle_count());
+  CHECK(by_default.memory_bytes() == off.memory_bytes());
+  CHECK(by_default.bvh().prims() == off.bvh().prims());
+  REQUIRE(by_default.bvh().wide_nodes().size() == off.bvh().wide_nodes().size());
+  CHECK(std::memcmp(by_default.bvh().wide_nodes().data(), off.bvh().wide_nodes().data(),
+                    off.bvh().wide_nodes().size_bytes()) == 0);
+}
+
+TEST_CASE("only triangles past the threshold are cut, each at most a quarter of its ratio times", "[accel][presplit]") {
+  // Well-shaped triangles and slivers of known box-to-area ratios (width w,
+  // length 8 along a diagonal of the xy plane: box area about 2 * 32 / (8 w)
+  // times twice the triangle's area).
+  PCG32 rng(28, 0x5b1);
+  TriangleMesh m;
+  std::vector<double> ratio;
+  auto add = [&](const Point3f& a, const Point3f& b, const Point3f& c) {
+    add_tri(m, a, b, c);
+    Bounds3f box = union_bounds(union_bounds(Bounds3f(a), b), c);
+    ratio.push_back(double(box.surface_area()) / double(length(cross(b - a, c - a))));
+  };
+  for (int i = 0; i < 300; ++i) {
+    Point3f c{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    if (i % 3 == 0) {
+      Float w = std::exp2(uniform(rng, -7, -1));
+      Vector3f d{4, 4, uniform(rng, -1, 1)};
+      add(c, c + d, c + d * 0.5f + Vector3f{w, -w, 0});
+    } else {
+      add(c, c + Vector3f{1, 0, 0.1f}, c + Vector3f{0.5f, 0.9f, 0});
+    }
+  }
+  size_t n = m.triangle_count(), slivers = 0, at_cap = 0;
+  for (double r : ratio) slivers += r >= 32;
+  REQUIRE(slivers > 50);
+  REQUIRE(slivers < n);
+  for (float budget : {0.2f, 100.0f}) {
+    detail::SplitReferences refs = refs_of(m, budget, 1);
+    std::vector<size_t> count(n, 0);
+    for (uint32_t t : refs.tri) ++count[t];
+    size_t over = 0, cut_below = 0;
+    at_cap = 0;
+    for (size_t t = 0; t < n; ++t) {
+      size_t cap = ratio[t] >= 32 ? size_t(std::floor(ratio[t] / 4)) : 0;
+      over += count[t] > cap + 1;
+      cut_below += ratio[t] < 32 && count[t] != 1;
+      at_cap += count[t] == cap + 1;
+    }
+    INFO("budget " << budget << ": " << refs.tri.size() << " references for " << n << " triangles, " << slivers
+                   << " past the threshold, " << at_cap << " at their cap");
+    CHECK(refs.tri.size() <= n + size_t(double(budget) * double(n)));
+    CHECK(over == 0);
+    CHECK(cut_below == 0);
+    // With a budget that no cap limits, every triangle gets its cap.
+    if (budget > 10) CHECK(at_cap == n);
+  }
+}
+
 TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel][presplit]") {
   PCG32 rng(26, 0x5b1);
   TriangleMesh m = random_long(10, rng);
@@ -332,4 +414,9 @@ TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel
   CHECK_THROWS_AS(MeshAccel(m, with_budget(infinity)), Error);
   CHECK_THROWS_AS(MeshAccel(m, with_budget(1e9f)), Error);  // more than 2^32 references
   CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_budget(0.5f)));
+  for (float threshold : {0.5f, -1.0f, std::nanf(""), infinity}) {
+    BVHBuildOptions o;
+    o.split_threshold = threshold;
+    CHECK_THROWS_AS(MeshAccel(m, o), Error);
+  }
 }

@@ -6,11 +6,23 @@
 // built over smaller boxes (the idea of Ernst & Greiner 2007, "early split
 // clipping", with the budgeted, prioritised allocation of Karras & Aila 2013).
 //
-// Allocation: a triangle's priority is the surface area by which its box
+// Which triangles: those whose box's surface area is at least `threshold`
+// times twice the triangle's area (its two sides; BVHBuildOptions::
+// split_threshold, 32 by default). A well-shaped triangle's box is 2 (flat in
+// an axis plane) to about 6 times that; on prism's 1M-triangle displaced
+// sphere no triangle reaches 32, while long thin or large diagonal slivers
+// are in the hundreds or thousands. So a mesh of well-shaped triangles is not
+// split at all and builds exactly as without splitting.
+//
+// Allocation: a candidate's priority is the surface area by which its box
 // exceeds the triangle (box area minus twice the triangle's area; both sides
-// of the triangle count, as they do for a flat box). Triangle i gets
-// floor(s * priority_i) extra references, the scale s the largest (by
-// bisection) that keeps the total within the budget. A triangle with k extra
+// of the triangle count, as they do for a flat box). Candidate i gets
+// min(floor(s * priority_i), cap_i) extra references, cap_i = floor(ratio_i
+// / 4) for the ratio above (about the number of pieces whose boxes would be
+// as tight as a well-shaped triangle's: cutting a sliver k times divides its
+// ratio by about k), the scale s the largest (by bisection) that keeps the
+// total within the budget. The cap keeps a few slivers in a large mesh from
+// taking the whole budget. A triangle with k extra
 // references is cut recursively: the current reference box is halved at the
 // midpoint of its longest axis, the triangle is clipped exactly against each
 // half (Sutherland-Hodgman), each half's reference box is the box of its
@@ -157,55 +169,67 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
 }
 
 // The references of mesh triangles for a budget of `budget` extra references
-// per triangle (a fraction: 0.3 = up to 30% more references than triangles).
+// per triangle (a fraction: 0.3 = up to 30% more references than triangles)
+// among the triangles whose box-to-area ratio reaches `threshold`. Empty when
+// no triangle is split (the caller then builds over the triangles as they are).
 template <class Vertices>
-SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, int threads) {
+SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, float threshold, int threads) {
   if (!(budget >= 0) || !std::isfinite(budget))
     throw Error("BVHBuildOptions::split_budget must be a finite number >= 0, got " + std::to_string(budget));
+  if (!(threshold >= 1) || !std::isfinite(threshold))
+    throw Error("BVHBuildOptions::split_threshold must be a finite number >= 1, got " + std::to_string(threshold));
   const uint64_t total = uint64_t(double(budget) * double(n));
   if (double(n) + double(total) > double(UINT32_MAX))
     throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
                 std::to_string(double(n) + double(total)) + " references, more than 2^32 - 1");
-  // Priorities.
-  std::vector<float> prio(n);
+  if (total == 0) return {};
+  // The candidates (triangle, priority, cap), chunk by chunk in triangle order.
+  struct Candidate {
+    uint32_t tri;
+    uint32_t cap;
+    double prio;
+  };
   const int chunks = parallel_chunk_count(n, threads);
-  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int) {
+  std::vector<std::vector<Candidate>> found(static_cast<size_t>(chunks));
+  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
     for (size_t i = begin; i < end; ++i) {
       Point3f v[3];
       vertices(i, v);
       Bounds3f box = union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]);
-      Float area2 = length(cross(v[1] - v[0], v[2] - v[0]));  // twice the area
-      Float p = box.surface_area() - area2;
-      if (!(p > 0) || !std::isfinite(p)) p = 0;
-      prio[i] = p;
+      double area2 = double(length(cross(v[1] - v[0], v[2] - v[0])));  // twice the area
+      double sa = double(box.surface_area());
+      // Zero-area triangles are never hit: no reason to cut them.
+      if (!(area2 > 0) || !std::isfinite(sa) || !(sa >= double(threshold) * area2)) continue;
+      double cap = std::min(std::floor(sa / (4 * area2)), double(total));
+      double prio = sa - area2;
+      if (!(prio > 0) || cap < 1) continue;
+      found[size_t(ch)].push_back({uint32_t(i), uint32_t(cap), prio});
     }
   });
-  // Summed in one pass in triangle order (about a millisecond per million):
-  // a sum per thread chunk would round differently at each thread count, and
-  // the scale below, hence the references, would depend on it.
-  double psum = 0;
-  uint64_t npos = 0;
-  for (size_t i = 0; i < n; ++i) {
-    psum += double(prio[i]);
-    npos += prio[i] > 0;
+  std::vector<Candidate> cand;
+  for (auto& f : found) {
+    cand.insert(cand.end(), f.begin(), f.end());
+    f = {};
   }
-  // The scale: sum floor(s p_i) <= total. At s = total / psum it holds; at
-  // s = (total + npos) / psum it is >= total; bisect in between.
-  std::vector<uint64_t> chunk_count(static_cast<size_t>(chunks));
-  auto count_at = [&](double s) {
-    parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
-      uint64_t c = 0;
-      for (size_t i = begin; i < end; ++i) c += uint64_t(std::floor(double(prio[i]) * s));
-      chunk_count[size_t(ch)] = c;
-    });
-    uint64_t c = 0;
-    for (uint64_t x : chunk_count) c += x;
-    return c;
+  if (cand.empty()) return {};
+  // Summed in triangle order, so that the scale, hence the references, do
+  // not depend on the thread count.
+  auto extra_at = [](const Candidate& c, double s) {
+    return uint64_t(std::min(std::floor(c.prio * s), double(c.cap)));
   };
-  double scale = 0;
-  if (total > 0 && psum > 0) {
-    double lo = double(total) / psum, hi = double(total + npos) / psum;
-    for (int it = 0; it < 24 && hi > lo * (1 + 1e-7); ++it) {
+  auto count_at = [&](double s) {
+    uint64_t k = 0;
+    for (const Candidate& c : cand) k += extra_at(c, s);
+    return k;
+  };
+  // The scale: count_at is non-decreasing in s, 0 at s = 0, and every
+  // candidate reaches its cap at hi.
+  double hi = 0;
+  for (const Candidate& c : cand) hi = std::max(hi, (double(c.cap) + 1) / c.prio);
+  double scale = hi;
+  if (count_at(hi) > total) {
+    double lo = 0;
+    for (int it = 0; it < 64 && hi > lo * (1 + 1e-7); ++it) {
       double m = 0.5 * (lo + hi);
       if (count_at(m) <= total)
         lo = m;
@@ -214,22 +238,24 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     }
     scale = lo;
   }
+  std::vector<uint32_t> extra(n, 0);
+  uint64_t any = 0;
+  for (const Candidate& c : cand) any += (extra[c.tri] = uint32_t(extra_at(c, scale)));
+  if (any == 0) return {};
   // The references, chunk by chunk, concatenated in triangle order.
   std::vector<SplitReferences> parts(static_cast<size_t>(chunks));
   parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
     SplitReferences& part = parts[size_t(ch)];
-    part.bounds.reserve(size_t(double(end - begin) * (1.0 + double(budget))) + 16);
+    part.bounds.reserve(end - begin + 16);
     part.tri.reserve(part.bounds.capacity());
     for (size_t i = begin; i < end; ++i) {
       Point3f v[3];
       vertices(i, v);
-      double e = std::floor(double(prio[i]) * scale);
-      uint32_t extra = uint32_t(std::min(e, double(total)));
-      if (extra == 0) {
+      if (extra[i] == 0) {
         part.bounds.push_back(union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]));
         part.tri.push_back(uint32_t(i));
       } else {
-        split_triangle(v[0], v[1], v[2], uint32_t(i), extra, part.bounds, part.tri);
+        split_triangle(v[0], v[1], v[2], uint32_t(i), extra[i], part.bounds, part.tri);
       }
     }
   });

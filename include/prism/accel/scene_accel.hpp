@@ -43,14 +43,14 @@ inline auto triangle_bounds(const TriangleMesh& mesh) {
 }
 }  // namespace detail
 
-// A mesh's BVH with its triangles' vertices copied into leaf order, four
-// triangles to a packet (accel/triangle_packet.hpp): each leaf starts a new
-// packet, so a leaf's triangles are contiguous, need no index lookups and are
-// tested four at a time.
+// A mesh's BVH with its triangles' vertices copied into leaf order, a packet
+// of triangle_packet_width triangles at a time (accel/triangle_packet.hpp):
+// each leaf starts a new packet, so a leaf's triangles are contiguous, need
+// no index lookups and are tested together.
 //
-// With options.split_budget > 0 the BVH is built over references from
-// pre-splitting (accel/presplit.hpp): a triangle may then sit in several
-// leaves, each packet lane holding the whole triangle, so hits are exact and
+// Where pre-splitting (accel/presplit.hpp; on by default, for slivers only)
+// cuts triangles, the BVH is built over its references: a triangle may then
+// sit in several leaves, each packet lane holding the whole triangle, so hits are exact and
 // the same as without splitting; m_leaf_tri maps leaf order to the mesh's
 // triangle index (without splitting that is the BVH's own prims()).
 class MeshAccel {
@@ -61,17 +61,20 @@ class MeshAccel {
     BVHBuildOptions opt = options;
     opt.leaf_block = triangle_packet_width;
     m_threads = detail::build_threads(opt.threads);
+    detail::SplitReferences refs;
     if (opt.split_budget != 0.0f) {
       const Point3f* p = mesh.positions.data();
       const uint32_t* idx = mesh.indices.data();
-      detail::SplitReferences refs = detail::presplit_triangles(
+      refs = detail::presplit_triangles(
           n,
           [&](size_t i, Point3f* v) {
             v[0] = p[idx[3 * i]];
             v[1] = p[idx[3 * i + 1]];
             v[2] = p[idx[3 * i + 2]];
           },
-          opt.split_budget, m_threads);
+          opt.split_budget, opt.split_threshold, m_threads);
+    }
+    if (!refs.tri.empty()) {
       m_bvh = BVH::build(refs.bounds.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
       m_ref_tri = std::move(refs.tri);
       m_leaf_tri.resize(m_bvh.prims().size());
