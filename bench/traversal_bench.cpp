@@ -774,12 +774,12 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     per.push_back({th, std::move(em)});
   }
   const MeshAccel& ma = prism_scene.mesh_accels()[0];
-  const auto& nodes = ma.bvh().nodes();
   size_t leaves = 0;
-  for (const auto& n : nodes) leaves += n.is_leaf();
-  std::printf("  prism BVH: %zu binary nodes, %zu wide nodes, %zu leaves, %.2f triangles per leaf, %.1f bytes per "
-              "triangle (binary tree, wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
-              nodes.size(), ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
+  for (const auto& n : ma.bvh().wide_nodes())
+    for (uint32_t c : n.count) leaves += c != 0 && c != detail::BVHWideNode::interior;
+  std::printf("  prism BVH: %zu wide nodes, %zu leaves, %.2f triangles per leaf, %.1f bytes per "
+              "triangle (wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
+              ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
               double(ma.memory_bytes()) / double(ntri), ma.reference_count(), double(opt.split_budget));
 
   // Ray sets, all derived from prism's primary hits (deterministic).

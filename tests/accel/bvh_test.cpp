@@ -24,6 +24,13 @@ using namespace prism;
 
 namespace {
 
+// Options that keep the binary tree, for the tests that inspect it.
+BVHBuildOptions keep_tree() {
+  BVHBuildOptions o;
+  o.keep_binary_tree = true;
+  return o;
+}
+
 using test::random_unit;
 using test::uniform;
 
@@ -321,7 +328,7 @@ TEST_CASE("BVH leaves cover their primitives and nodes nest", "[accel][bvh]") {
   PCG32 rng(2, 0xb0b);
   Soup s = random_soup(5000, rng);
   std::vector<Bounds3f> b = s.bounds();
-  BVH bvh = BVH::build(b);
+  BVH bvh = BVH::build(b, keep_tree());
   const auto& nodes = bvh.nodes();
   size_t bad = 0, leaf_prims = 0;
   auto inside = [](const Bounds3f& in, const Bounds3f& out) {
@@ -387,7 +394,7 @@ TEST_CASE("BVH over triangles sharing one centroid builds and is correct", "[acc
   }
   std::vector<Bounds3f> bb = s.bounds();
   for (const Bounds3f& x : bb) REQUIRE(x.centroid() == Point3f{0, 0, 0});
-  BVH bvh = BVH::build(bb);
+  BVH bvh = BVH::build(bb, keep_tree());
   CHECK(bvh.prims().size() == s.size());
   CHECK(max_depth(bvh.nodes()) <= BVH::traversal_stack_size);
   MeshAccel mesh_accel(s.mesh(), BVHBuildOptions{});
@@ -414,7 +421,7 @@ TEST_CASE("BVH over exponentially spaced triangles stays within its stack", "[ac
     Float x = std::ldexp(1.0f, 60 - 3 * k);
     add_x_only_triangle(s, x, x / 64, x / 64);
   }
-  BVH bvh = BVH::build(s.bounds());
+  BVH bvh = BVH::build(s.bounds(), keep_tree());
   int depth = max_depth(bvh.nodes());
   INFO("depth " << depth);
   CHECK(depth > 48);                          // the depth limit was reached...
@@ -454,7 +461,7 @@ TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
   }
   for (int block : {1, 4}) {
     auto build = [&](int threads) {
-      BVHBuildOptions opt;
+      BVHBuildOptions opt = keep_tree();
       opt.threads = threads;
       opt.leaf_block = block;
       return BVH::build(b, opt);
@@ -556,6 +563,43 @@ TEST_CASE("a deforming mesh after refit gives the hits of a rebuild", "[accel][b
   CHECK_THROWS_AS(refitted.refit(smaller), Error);
 }
 
+TEST_CASE("the binary tree is freed unless kept, and refit recomputes the wide boxes in place", "[accel][bvh][refit]") {
+  PCG32 rng(11, 0xb0b);
+  Soup s = random_soup(5000, rng);
+  std::vector<Bounds3f> b = s.bounds();
+  BVH lean = BVH::build(b), kept = BVH::build(b, keep_tree());
+  CHECK(lean.nodes().empty());
+  REQUIRE(kept.nodes().size() > 1000);
+  CHECK(kept.memory_bytes() - lean.memory_bytes() == kept.nodes().size() * sizeof(BVHNode));
+  CHECK(lean.prims() == kept.prims());
+  auto same_layout = [](const BVH& x, const BVH& y) {
+    return x.wide_nodes().size() == y.wide_nodes().size() &&
+           std::memcmp(x.wide_nodes().data(), y.wide_nodes().data(), x.wide_nodes().size_bytes()) == 0;
+  };
+  CHECK(same_layout(lean, kept));
+  auto same_box = [](const Bounds3f& x, const Bounds3f& y) { return x.min == y.min && x.max == y.max; };
+  CHECK(same_box(lean.bounds(), kept.nodes()[0].bounds()));
+  // Refit over the same bounds: every box comes out bit for bit as built.
+  BVH before = lean;
+  lean.refit([&](size_t i) { return b[i]; }, 2);
+  CHECK(same_layout(lean, before));
+  // Refit over moved bounds: both BVHs get the same wide boxes, the kept
+  // binary tree is refitted too, and the root box is the union of all.
+  std::vector<Bounds3f> moved = b;
+  Bounds3f all;
+  for (Bounds3f& x : moved) {
+    Vector3f d{uniform(rng, -2, 2), uniform(rng, -2, 2), uniform(rng, -2, 2)};
+    x = Bounds3f(x.min + d, x.max + d * 1.5f);
+    all = union_bounds(all, x);
+  }
+  lean.refit([&](size_t i) { return moved[i]; }, 1);
+  kept.refit([&](size_t i) { return moved[i]; }, 2);
+  CHECK(same_layout(lean, kept));
+  CHECK(!same_layout(lean, before));
+  CHECK(same_box(lean.bounds(), all));
+  CHECK(same_box(kept.nodes()[0].bounds(), all));
+}
+
 TEST_CASE("SceneAccel refit_mesh moves a mesh and its instances", "[accel][scene][refit]") {
   PCG32 rng(10, 0xb0b);
   Soup s = random_soup(500, rng);
@@ -605,7 +649,7 @@ TEST_CASE("degenerate triangles build a bounded tree and never corrupt hits", "[
     Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), 0.5f};
     s.v.insert(s.v.end(), {a, a + Vector3f{uniform(rng, 0, 1), 0, 0}, a + Vector3f{0, uniform(rng, 0, 1), 0}});
   }
-  BVH bvh = BVH::build(s.bounds());
+  BVH bvh = BVH::build(s.bounds(), keep_tree());
   std::vector<int> seen(s.size(), 0);
   for (uint32_t p : bvh.prims()) ++seen[p];
   CHECK(std::count(seen.begin(), seen.end(), 1) == long(s.size()));
@@ -619,7 +663,7 @@ TEST_CASE("a million copies of one triangle build a bounded tree", "[accel][bvh]
   const size_t n = size_t(1) << 20;
   s.v.reserve(3 * n);
   for (size_t i = 0; i < n; ++i) s.v.insert(s.v.end(), {Point3f{0, 0, 1}, Point3f{1, 0, 1}, Point3f{0, 1, 1}});
-  MeshAccel accel(s.mesh(), BVHBuildOptions{});
+  MeshAccel accel(s.mesh(), keep_tree());
   CHECK(max_depth(accel.bvh().nodes()) <= BVH::traversal_stack_size);
   // Every copy is in the tree once (padding repeats a leaf's last triangle
   // inside its own block only).

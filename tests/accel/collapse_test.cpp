@@ -136,6 +136,7 @@ TEST_CASE("The wide layout is the collapse with the least SAH cost", "[accel][bv
       BVHBuildOptions opt;
       opt.max_leaf_size = 1 + trial % 4;
       opt.leaf_block = trial % 3 == 0 ? 4 : 1;
+      opt.keep_binary_tree = true;
       BVH bvh = BVH::build(boxes, opt);
       const auto& nodes = bvh.nodes();
       if (nodes[0].is_leaf()) continue;
@@ -164,7 +165,9 @@ TEST_CASE("The collapse beats gathering the largest child first", "[accel][bvh][
   // cheaper.
   PCG32 rng(0xc0ffee, 3);
   std::vector<Bounds3f> boxes = random_boxes(rng, 5000);
-  BVH bvh = BVH::build(boxes);
+  BVHBuildOptions keep;
+  keep.keep_binary_tree = true;
+  BVH bvh = BVH::build(boxes, keep);
   const auto& nodes = bvh.nodes();
   std::vector<Float> greedy(nodes.size(), 0);
   // Reverse depth-first order meets children before parents.
@@ -203,7 +206,9 @@ TEST_CASE("Boxes without area still fill the wide nodes", "[accel][bvh][collapse
   // wide nodes, so the wide nodes are not left with two children each (about
   // half as many wide nodes as inner binary nodes).
   std::vector<Bounds3f> boxes(4000, Bounds3f(Point3f{1, 2, 3}));
-  BVH bvh = BVH::build(boxes);
+  BVHBuildOptions keep;
+  keep.keep_binary_tree = true;
+  BVH bvh = BVH::build(boxes, keep);
   size_t inner = count_nodes(bvh.nodes()).inner;
   INFO(inner << " inner binary nodes, " << bvh.wide_node_count() << " wide nodes");
   REQUIRE(inner > 100);

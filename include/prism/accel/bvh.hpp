@@ -26,6 +26,7 @@
 // BVHQuantWideNode): a ray then reaches a superset of those primitives.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -96,6 +97,10 @@ struct BVHBuildOptions {
   // about 6 is usual) is built exactly as with splitting off.
   float split_budget = 0.3f;
   float split_threshold = 32;
+  // Keep the binary tree that the wide traversal layout is derived from
+  // (BVH::nodes(), for tests and inspection). Otherwise it is freed once the
+  // layout is written: 32 bytes per binary node, about 9 per mesh triangle.
+  bool keep_binary_tree = false;
 };
 
 // Per-ray data for box tests.
@@ -581,19 +586,62 @@ class BVH {
       });
     }
     bvh.collapse_all(threads);
+    bvh.m_bounds = bvh.m_nodes[0].bounds();
+    if (!opt.keep_binary_tree) bvh.m_nodes = {};
     return bvh;
   }
 
   // Refit after the primitives moved (a deforming mesh): the same tree over
-  // the new bounds, bounds_of(i) giving input primitive i's. Boxes are
-  // recomputed bottom-up and the traversal layout is derived anew, so queries
-  // are exact; the SAH quality of the old topology may degrade if the motion
-  // reshuffles primitives (rebuild then).
+  // the new bounds, bounds_of(i) giving input primitive i's (called from
+  // several threads). Every wide node's boxes are recomputed bottom-up: leaf
+  // lanes from their primitives, inner lanes from the child node's box, so
+  // queries are exact; the SAH quality of the old topology may degrade if the
+  // motion reshuffles primitives (rebuild then). A kept binary tree
+  // (BVHBuildOptions::keep_binary_tree) is refitted too.
   template <class BoundsOf>
     requires std::is_invocable_r_v<Bounds3f, BoundsOf&, size_t>
-  void refit(BoundsOf&& bounds_of) {
-    // Depth-first order puts children after their parent: a reverse sweep
-    // meets every child before its parent.
+  void refit(BoundsOf&& bounds_of, int threads = 0) {
+    if (m_wide.empty()) return;
+    threads = detail::build_threads(threads);
+    constexpr int W = detail::wide_width;
+    // The leaf lanes' boxes, in parallel (the bulk of the work: one call of
+    // bounds_of per primitive); then the inner lanes and the nodes' own
+    // boxes in one reverse sweep (pre-order puts a child after its parent).
+    std::vector<std::array<Bounds3f, W>> lane(m_wide.size());
+    size_t nw = m_wide.size();
+    detail::parallel_chunks(nw, detail::parallel_chunk_count(nw * 64, threads), [&](size_t b, size_t e, int) {
+      for (size_t w = b; w < e; ++w) {
+        const detail::BVHWideNode& n = m_wide[w];
+        for (int l = 0; l < W; ++l) {
+          if (n.count[l] == 0 || n.count[l] == detail::BVHWideNode::interior) continue;
+          Bounds3f box;
+          for (uint32_t k = n.child[l], end = n.child[l] + n.count[l]; k < end; ++k)
+            box = union_bounds(box, bounds_of(size_t(m_prims[k])));
+          lane[w][size_t(l)] = box;
+        }
+      }
+    });
+    std::vector<Bounds3f> node_box(nw);
+    for (size_t w = nw; w-- > 0;) {
+      detail::BVHWideNode& n = m_wide[w];
+      uint32_t child[W], count[W];
+      int k = 0;
+      Bounds3f all;
+      for (; k < W && n.count[k] != 0; ++k) {
+        child[k] = n.child[k];
+        count[k] = n.count[k];
+        if (count[k] == detail::BVHWideNode::interior) lane[w][size_t(k)] = node_box[child[k]];
+        all = union_bounds(all, lane[w][size_t(k)]);
+      }
+      detail::set_boxes(n, lane[w].data(), k);
+      for (int l = 0; l < k; ++l) {
+        n.child[l] = child[l];
+        n.count[l] = count[l];
+      }
+      node_box[w] = all;
+    }
+    m_bounds = node_box[0];
+    // The binary tree, if kept: the same reverse sweep.
     for (size_t i = m_nodes.size(); i-- > 0;) {
       BVHNode& nd = m_nodes[i];
       Bounds3f b;
@@ -607,15 +655,16 @@ class BVH {
         nd.bmax[a] = b.max[a];
       }
     }
-    collapse_all(detail::build_threads(0));
   }
 
-  bool empty() const { return m_nodes.empty(); }
+  bool empty() const { return m_wide.empty(); }
+  // The binary tree the traversal layout was derived from; empty unless the
+  // build kept it (BVHBuildOptions::keep_binary_tree).
   const std::vector<BVHNode>& nodes() const { return m_nodes; }
   // Leaf order: primitive k of a leaf range is the input primitive prims()[k].
   const std::vector<uint32_t>& prims() const { return m_prims; }
-  Bounds3f bounds() const { return m_nodes.empty() ? Bounds3f{} : m_nodes[0].bounds(); }
-  // Bytes held: the binary tree, the wide traversal layout and the leaf order.
+  Bounds3f bounds() const { return m_bounds; }
+  // Bytes held: the wide traversal layout, the leaf order and the binary tree if kept.
   size_t memory_bytes() const {
     return m_nodes.size() * sizeof(BVHNode) + m_wide.size() * sizeof(detail::BVHWideNode) +
            m_prims.size() * sizeof(uint32_t);
@@ -630,7 +679,7 @@ class BVH {
   // unreachable.
   template <class F>
   bool intersect(const Point3f& o, const Vector3f& d, Float& t_max, F&& isect) const {
-    if (m_nodes.empty()) return false;
+    if (m_wide.empty()) return false;
     return intersect(detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, isect);
   }
   // The same with the ray's box-test data computed once by the caller, which
@@ -650,7 +699,7 @@ class BVH {
   // multiple of it and the range may be read up to the next multiple.
   template <class F>
   bool intersect_leaves(const detail::WideRayPrecomp& r, Float& t_max, F&& leaf) const {
-    if (m_nodes.empty()) return false;
+    if (m_wide.empty()) return false;
     // No separate test of the root box: a ray that misses it misses every
     // child box inside it too (the slab distances are monotonic in the planes).
     constexpr Float widen = 1 + 2 * gamma(3);
@@ -722,7 +771,7 @@ class BVH {
   // Any hit before t_max: stops at the first primitive for which isect returns true.
   template <class F>
   bool occluded(const Point3f& o, const Vector3f& d, Float t_max, F&& isect) const {
-    if (m_nodes.empty()) return false;
+    if (m_wide.empty()) return false;
     return occluded(detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, isect);
   }
   template <class F>
@@ -737,7 +786,7 @@ class BVH {
   // the leaf's primitives is hit before t_max (see intersect_leaves).
   template <class F>
   bool occluded_leaves(const detail::WideRayPrecomp& r, Float t_max, F&& leaf) const {
-    if (m_nodes.empty()) return false;
+    if (m_wide.empty()) return false;
     uint32_t stack[wide_stack_size];
     int sp = 0;
     uint32_t idx = 0;
@@ -1337,9 +1386,10 @@ class BVH {
     m_wide[w] = node;
   }
 
-  std::vector<BVHNode> m_nodes;
+  std::vector<BVHNode> m_nodes;  // the binary tree: during the build, after it only if kept
   std::vector<uint32_t> m_prims;
   std::vector<detail::BVHWideNode> m_wide;  // traversal layout, derived from m_nodes
+  Bounds3f m_bounds;
 };
 
 }  // namespace prism

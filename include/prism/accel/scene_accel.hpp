@@ -99,9 +99,9 @@ class MeshAccel {
     // A split triangle's references each get its whole new box: conservative,
     // so hits stay exact (re-splitting needs a rebuild).
     if (m_ref_tri.empty())
-      m_bvh.refit(detail::triangle_bounds(mesh));
+      m_bvh.refit(detail::triangle_bounds(mesh), m_threads);
     else
-      m_bvh.refit([b = detail::triangle_bounds(mesh), r = m_ref_tri.data()](size_t i) { return b(r[i]); });
+      m_bvh.refit([b = detail::triangle_bounds(mesh), r = m_ref_tri.data()](size_t i) { return b(r[i]); }, m_threads);
     pack(mesh);
   }
 
