@@ -564,12 +564,14 @@ TEST_CASE("a deforming mesh after refit gives the hits of a rebuild", "[accel][b
 }
 
 TEST_CASE("the binary tree is freed unless kept, and refit recomputes the wide boxes in place", "[accel][bvh][refit]") {
+  // Enough primitives for the refit's parallel pass (more than 1024 wide nodes).
   PCG32 rng(11, 0xb0b);
-  Soup s = random_soup(5000, rng);
+  Soup s = random_soup(100000, rng);
   std::vector<Bounds3f> b = s.bounds();
   BVH lean = BVH::build(b), kept = BVH::build(b, keep_tree());
   CHECK(lean.nodes().empty());
   REQUIRE(kept.nodes().size() > 1000);
+  REQUIRE(lean.wide_node_count() > 1024);
   CHECK(kept.memory_bytes() - lean.memory_bytes() == kept.nodes().size() * sizeof(BVHNode));
   CHECK(lean.prims() == kept.prims());
   auto same_layout = [](const BVH& x, const BVH& y) {

@@ -186,6 +186,26 @@ detail::SplitReferences refs_of(const TriangleMesh& m, float budget, int threads
       budget, BVHBuildOptions{}.split_threshold, threads);
 }
 
+// Near-equilateral triangles in random orientations: box area 2 to about 7
+// times twice the triangle's area, below the default threshold of 32.
+TriangleMesh well_shaped(int count, PCG32& rng) {
+  TriangleMesh m;
+  for (int i = 0; i < count; ++i) {
+    Point3f c{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    Vector3f u = random_unit(rng), n = random_unit(rng);
+    Vector3f v = normalize(cross(n, u));
+    u = cross(v, normalize(n));
+    Float r = std::exp2(uniform(rng, -4, 1));
+    Point3f p[3];
+    for (int k = 0; k < 3; ++k) {
+      Float a = 2 * pi * Float(k) / 3 + uniform(rng, -0.3f, 0.3f);
+      p[k] = c + (u * std::cos(a) + v * std::sin(a)) * r;
+    }
+    add_tri(m, p[0], p[1], p[2]);
+  }
+  return m;
+}
+
 }  // namespace
 
 TEST_CASE("pre-split references cover their triangle and respect the budget", "[accel][presplit]") {
@@ -196,13 +216,14 @@ TEST_CASE("pre-split references cover their triangle and respect the budget", "[
     for (float budget : {0.1f, 1.0f, 8.0f}) {
       detail::SplitReferences r = refs_of(*mesh, budget, 1);
       size_t n = mesh->triangle_count();
-      INFO("budget " << budget << ", " << n << " triangles, " << r.tri.size() << " references");
-      CHECK(r.tri.size() <= n + size_t(double(budget) * double(n)));
-      CHECK(r.tri.size() >= n + size_t(0.5 * double(budget) * double(n)));  // the budget is mostly used
+      INFO("budget " << budget << ", " << n << " triangles, " << r.size() << " references");
+      REQUIRE(r.triangles() == n);
+      CHECK(r.size() <= n + size_t(double(budget) * double(n)));
+      CHECK(r.size() >= n + size_t(0.5 * double(budget) * double(n)));  // the budget is mostly used
       std::vector<std::vector<Bounds3f>> of(n);
       size_t outside = 0, uncovered = 0, missing = 0;
-      for (size_t k = 0; k < r.tri.size(); ++k) {
-        uint32_t t = r.tri[k];
+      for (size_t k = 0; k < r.size(); ++k) {
+        uint32_t t = r.triangle(k);
         Bounds3f tb = union_bounds(union_bounds(Bounds3f(vtx(*mesh, t, 0)), vtx(*mesh, t, 1)), vtx(*mesh, t, 2));
         const Bounds3f& b = r.bounds[k];
         if (b.empty() || !tb.inside(b.min) || !tb.inside(b.max)) ++outside;
@@ -251,11 +272,11 @@ TEST_CASE("pre-split references do not depend on the thread count", "[accel][pre
   detail::SplitReferences a = refs_of(m, 0.3f, 1);
   for (int threads : {2, 3}) {
     detail::SplitReferences b = refs_of(m, 0.3f, threads);
-    REQUIRE(a.tri.size() == b.tri.size());
-    CHECK(a.tri == b.tri);
+    REQUIRE(a.size() == b.size());
+    CHECK(a.extra_tri == b.extra_tri);
     CHECK(std::memcmp(a.bounds.data(), b.bounds.data(), a.bounds.size() * sizeof(Bounds3f)) == 0);
   }
-  CHECK(a.tri.size() > m.triangle_count());
+  CHECK(a.size() > m.triangle_count());
 }
 
 TEST_CASE("MeshAccel over pre-split triangles finds the hits of brute force", "[accel][presplit]") {
@@ -331,23 +352,8 @@ TEST_CASE("SceneAccel passes the split budget to its meshes and keeps triangle i
 }
 
 TEST_CASE("by default pre-splitting leaves a mesh of well-shaped triangles alone", "[accel][presplit]") {
-  // Near-equilateral triangles in random orientations: box area 2 to about 7
-  // times twice the triangle's area, below the default threshold of 32.
   PCG32 rng(27, 0x5b1);
-  TriangleMesh m;
-  for (int i = 0; i < 4000; ++i) {
-    Point3f c{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
-    Vector3f u = random_unit(rng), n = random_unit(rng);
-    Vector3f v = normalize(cross(n, u));
-    u = cross(v, normalize(n));
-    Float r = std::exp2(uniform(rng, -4, 1));
-    Point3f p[3];
-    for (int k = 0; k < 3; ++k) {
-      Float a = 2 * pi * Float(k) / 3 + uniform(rng, -0.3f, 0.3f);
-      p[k] = c + (u * std::cos(a) + v * std::sin(a)) * r;
-    }
-    add_tri(m, p[0], p[1], p[2]);
-  }
+  TriangleMesh m = well_shaped(4000, rng);
   MeshAccel by_default(m, BVHBuildOptions{}), off(m, with_budget(0));
   CHECK(BVHBuildOptions{}.split_budget > 0);
   CHECK(by_default.reference_count() == m.triangle_count());
@@ -356,6 +362,27 @@ TEST_CASE("by default pre-splitting leaves a mesh of well-shaped triangles alone
   REQUIRE(by_default.bvh().wide_nodes().size() == off.bvh().wide_nodes().size());
   CHECK(std::memcmp(by_default.bvh().wide_nodes().data(), off.bvh().wide_nodes().data(),
                     off.bvh().wide_nodes().size_bytes()) == 0);
+}
+
+TEST_CASE("a sliver in a large mesh costs only its own references", "[accel][presplit]") {
+  // One sliver (box area 41 times twice its area: at most 10 extra pieces)
+  // among 4000 well-shaped triangles: only its pieces are added, with 4 bytes
+  // of map each and no map for the other triangles (which would be 16 KB or
+  // more), and hits stay exact.
+  PCG32 rng(29, 0x5b1);
+  TriangleMesh m = well_shaped(4000, rng);
+  add_tri(m, {0, 0, 0}, {4, 4, 0}, {4.1f, 3.9f, 0});
+  MeshAccel split(m, BVHBuildOptions{}), off(m, with_budget(0));
+  size_t n = m.triangle_count(), extra = split.reference_count() - n;
+  INFO(extra << " extra references, " << split.memory_bytes() << " bytes against " << off.memory_bytes());
+  CHECK(extra >= 1);
+  CHECK(extra <= 10);
+  // Each piece: at most a packet, its leaf-order entries and its map entry,
+  // plus a few nodes; far less than 4 bytes for every triangle.
+  CHECK(split.memory_bytes() < off.memory_bytes() + 12 * 1024);
+  int hits = 0;
+  CHECK(compare(m, split, 1500, rng, &hits) == "");
+  CHECK(hits > 100);
 }
 
 TEST_CASE("only triangles past the threshold are cut, each at most a quarter of its ratio times", "[accel][presplit]") {
@@ -387,7 +414,8 @@ TEST_CASE("only triangles past the threshold are cut, each at most a quarter of 
   for (float budget : {0.2f, 100.0f}) {
     detail::SplitReferences refs = refs_of(m, budget, 1);
     std::vector<size_t> count(n, 0);
-    for (uint32_t t : refs.tri) ++count[t];
+    REQUIRE(refs.triangles() == n);
+    for (size_t k = 0; k < refs.size(); ++k) ++count[refs.triangle(k)];
     size_t over = 0, cut_below = 0;
     at_cap = 0;
     for (size_t t = 0; t < n; ++t) {
@@ -396,9 +424,9 @@ TEST_CASE("only triangles past the threshold are cut, each at most a quarter of 
       cut_below += ratio[t] < 32 && count[t] != 1;
       at_cap += count[t] == cap + 1;
     }
-    INFO("budget " << budget << ": " << refs.tri.size() << " references for " << n << " triangles, " << slivers
+    INFO("budget " << budget << ": " << refs.size() << " references for " << n << " triangles, " << slivers
                    << " past the threshold, " << at_cap << " at their cap");
-    CHECK(refs.tri.size() <= n + size_t(double(budget) * double(n)));
+    CHECK(refs.size() <= n + size_t(double(budget) * double(n)));
     CHECK(over == 0);
     CHECK(cut_below == 0);
     // With a budget that no cap limits, every triangle gets its cap.

@@ -51,9 +51,15 @@
 namespace prism {
 namespace detail {
 
+// The references of a mesh's n triangles: reference k < n is (the first
+// piece of) triangle k; the extra pieces follow, reference n + j being a
+// piece of triangle extra_tri[j]. So only the extra pieces need a map.
 struct SplitReferences {
-  std::vector<Bounds3f> bounds;  // reference boxes
-  std::vector<uint32_t> tri;     // reference -> triangle index in the mesh
+  std::vector<Bounds3f> bounds;     // reference boxes
+  std::vector<uint32_t> extra_tri;  // extra reference -> triangle index in the mesh
+  size_t size() const { return bounds.size(); }
+  size_t triangles() const { return bounds.size() - extra_tri.size(); }
+  uint32_t triangle(size_t k) const { return k < triangles() ? uint32_t(k) : extra_tri[k - triangles()]; }
 };
 
 // The convex polygon of triangle (a, b, c) clipped to box `box` (closed); its
@@ -222,13 +228,16 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     for (const Candidate& c : cand) k += extra_at(c, s);
     return k;
   };
-  // The scale: count_at is non-decreasing in s, 0 at s = 0, and every
-  // candidate reaches its cap at hi.
-  double hi = 0;
-  for (const Candidate& c : cand) hi = std::max(hi, (double(c.cap) + 1) / c.prio);
+  // The scale: count_at is non-decreasing in s; at lo = total / (sum of the
+  // priorities) it is at most the total, and at hi every candidate reaches its cap.
+  double hi = 0, psum = 0;
+  for (const Candidate& c : cand) {
+    hi = std::max(hi, (double(c.cap) + 1) / c.prio);
+    psum += c.prio;
+  }
   double scale = hi;
   if (count_at(hi) > total) {
-    double lo = 0;
+    double lo = std::min(double(total) / psum, hi);
     for (int it = 0; it < 64 && hi > lo * (1 + 1e-7); ++it) {
       double m = 0.5 * (lo + hi);
       if (count_at(m) <= total)
@@ -242,31 +251,45 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
   uint64_t any = 0;
   for (const Candidate& c : cand) any += (extra[c.tri] = uint32_t(extra_at(c, scale)));
   if (any == 0) return {};
-  // The references, chunk by chunk, concatenated in triangle order.
-  std::vector<SplitReferences> parts(static_cast<size_t>(chunks));
+  // The references: each triangle's first piece at its own index, the extra
+  // pieces chunk by chunk after them, in triangle order.
+  struct Part {
+    std::vector<Bounds3f> bounds;
+    std::vector<uint32_t> tri;
+  };
+  SplitReferences refs;
+  refs.bounds.resize(n);
+  std::vector<Part> parts(static_cast<size_t>(chunks));
   parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
-    SplitReferences& part = parts[size_t(ch)];
-    part.bounds.reserve(end - begin + 16);
-    part.tri.reserve(part.bounds.capacity());
+    Part& part = parts[size_t(ch)];
+    size_t extras = 0;
+    for (size_t i = begin; i < end; ++i) extras += extra[i];
+    part.bounds.reserve(extras);
+    part.tri.reserve(extras);
+    std::vector<Bounds3f> pieces;
+    std::vector<uint32_t> piece_tri;
     for (size_t i = begin; i < end; ++i) {
       Point3f v[3];
       vertices(i, v);
       if (extra[i] == 0) {
-        part.bounds.push_back(union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]));
-        part.tri.push_back(uint32_t(i));
-      } else {
-        split_triangle(v[0], v[1], v[2], uint32_t(i), extra[i], part.bounds, part.tri);
+        refs.bounds[i] = union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]);
+        continue;
       }
+      pieces.clear();
+      piece_tri.clear();
+      split_triangle(v[0], v[1], v[2], uint32_t(i), extra[i], pieces, piece_tri);
+      refs.bounds[i] = pieces[0];
+      part.bounds.insert(part.bounds.end(), pieces.begin() + 1, pieces.end());
+      part.tri.insert(part.tri.end(), piece_tri.begin() + 1, piece_tri.end());
     }
   });
-  SplitReferences refs;
   size_t count = 0;
   for (const auto& p : parts) count += p.tri.size();
-  refs.bounds.reserve(count);
-  refs.tri.reserve(count);
+  refs.bounds.reserve(n + count);
+  refs.extra_tri.reserve(count);
   for (auto& p : parts) {
     refs.bounds.insert(refs.bounds.end(), p.bounds.begin(), p.bounds.end());
-    refs.tri.insert(refs.tri.end(), p.tri.begin(), p.tri.end());
+    refs.extra_tri.insert(refs.extra_tri.end(), p.tri.begin(), p.tri.end());
     p = {};
   }
   return refs;

@@ -51,8 +51,9 @@ inline auto triangle_bounds(const TriangleMesh& mesh) {
 // Where pre-splitting (accel/presplit.hpp; on by default, for slivers only)
 // cuts triangles, the BVH is built over its references: a triangle may then
 // sit in several leaves, each packet lane holding the whole triangle, so hits are exact and
-// the same as without splitting; m_leaf_tri maps leaf order to the mesh's
-// triangle index (without splitting that is the BVH's own prims()).
+// the same as without splitting. Reference k < n is triangle k itself (its
+// first piece); only the extra pieces, after them, need a map to their
+// triangle (m_extra_tri), 4 bytes each.
 class MeshAccel {
  public:
   MeshAccel() = default;
@@ -74,11 +75,9 @@ class MeshAccel {
           },
           opt.split_budget, opt.split_threshold, m_threads);
     }
-    if (!refs.tri.empty()) {
-      m_bvh = BVH::build(refs.bounds.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
-      m_ref_tri = std::move(refs.tri);
-      m_leaf_tri.resize(m_bvh.prims().size());
-      for (size_t k = 0; k < m_leaf_tri.size(); ++k) m_leaf_tri[k] = m_ref_tri[m_bvh.prims()[k]];
+    if (refs.size() != 0) {
+      m_bvh = BVH::build(refs.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
+      m_extra_tri = std::move(refs.extra_tri);
     } else {
       m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
     }
@@ -98,23 +97,21 @@ class MeshAccel {
                   " triangles, the BVH was built over " + std::to_string(m_triangles));
     // A split triangle's references each get its whole new box: conservative,
     // so hits stay exact (re-splitting needs a rebuild).
-    if (m_ref_tri.empty())
-      m_bvh.refit(detail::triangle_bounds(mesh), m_threads);
-    else
-      m_bvh.refit([b = detail::triangle_bounds(mesh), r = m_ref_tri.data()](size_t i) { return b(r[i]); }, m_threads);
+    m_bvh.refit([this, b = detail::triangle_bounds(mesh)](size_t i) { return b(triangle_of(uint32_t(i))); },
+                m_threads);
     pack(mesh);
   }
 
   const BVH& bvh() const { return m_bvh; }
   // BVH references per triangle (> 1 with pre-splitting).
-  size_t reference_count() const { return m_ref_tri.empty() ? m_triangles : m_ref_tri.size(); }
+  size_t reference_count() const { return m_triangles + m_extra_tri.size(); }
   // The mesh's triangle index of leaf-order entry k (entries of bvh().prims()).
-  uint32_t leaf_triangle(size_t k) const { return leaf_order()[k]; }
+  uint32_t leaf_triangle(size_t k) const { return triangle_of(m_bvh.prims()[k]); }
   Bounds3f bounds() const { return m_bvh.bounds(); }
   // Bytes of the BVH's nodes, its leaf order and the triangle packets.
   size_t memory_bytes() const {
     return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket) +
-           (m_leaf_tri.size() + m_ref_tri.size()) * sizeof(uint32_t);
+           m_extra_tri.size() * sizeof(uint32_t);
   }
 
   // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
@@ -149,18 +146,20 @@ class MeshAccel {
 
  private:
   static constexpr int W = triangle_packet_width;
-  const uint32_t* leaf_order() const { return m_leaf_tri.empty() ? m_bvh.prims().data() : m_leaf_tri.data(); }
+  // The triangle of BVH reference r: itself, or for an extra piece from
+  // pre-splitting (r >= the triangle count) the one it was cut from.
+  uint32_t triangle_of(uint32_t r) const { return r < m_triangles ? r : m_extra_tri[r - m_triangles]; }
   // Copies the triangles into the packets, in leaf order.
   void pack(const TriangleMesh& mesh) {
     const Point3f* p = mesh.positions.data();
     const uint32_t* idx = mesh.indices.data();
     size_t packets = m_packets.size();
-    const uint32_t* order = leaf_order();
+    const uint32_t* order = m_bvh.prims().data();
     detail::parallel_chunks(packets, detail::parallel_chunk_count(packets, m_threads),
                             [&](size_t begin, size_t end, int) {
                               for (size_t k = begin; k < end; ++k)
                                 for (int l = 0; l < W; ++l) {
-                                  size_t t = order[k * W + size_t(l)];
+                                  size_t t = triangle_of(order[k * W + size_t(l)]);
                                   m_packets[k].set(l, p[idx[3 * t]], p[idx[3 * t + 1]], p[idx[3 * t + 2]]);
                                 }
                             });
@@ -195,7 +194,7 @@ class MeshAccel {
       }
       return any;
     });
-    if (found) *tri = leaf_order()[best];
+    if (found) *tri = triangle_of(m_bvh.prims()[best]);
     return found;
   }
   template <int KZ>
@@ -204,14 +203,14 @@ class MeshAccel {
     pc.kz = KZ;
     pc.kx = (KZ + 1) % 3;
     pc.ky = (KZ + 2) % 3;
-    const uint32_t* order = leaf_order();
+    const uint32_t* order = m_bvh.prims().data();
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
         int lanes = lanes_of(count, j);
         if (skip != UINT32_MAX)
           for (int l = 0; l < W; ++l)
-            if (order[k * W + uint32_t(l)] == skip) lanes &= ~(1 << l);
+            if (triangle_of(order[k * W + uint32_t(l)]) == skip) lanes &= ~(1 << l);
         if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
       }
       return false;
@@ -220,8 +219,7 @@ class MeshAccel {
 
   BVH m_bvh;
   std::vector<TrianglePacket> m_packets;
-  std::vector<uint32_t> m_ref_tri;   // pre-splitting only: reference -> triangle
-  std::vector<uint32_t> m_leaf_tri;  // pre-splitting only: leaf order -> triangle
+  std::vector<uint32_t> m_extra_tri;  // pre-splitting only: extra reference n + j -> triangle
   size_t m_triangles = 0;
   int m_threads = 1;
 };
