@@ -218,8 +218,8 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     f = {};
   }
   if (cand.empty()) return {};
-  // Summed in triangle order, so that the scale, hence the references, do
-  // not depend on the thread count.
+  // Counts and sums below run over the candidates in triangle order, so
+  // that the scale, hence the references, do not depend on the thread count.
   auto extra_at = [](const Candidate& c, double s) {
     return uint64_t(std::min(std::floor(c.prio * s), double(c.cap)));
   };

@@ -108,7 +108,7 @@ class MeshAccel {
   // The mesh's triangle index of leaf-order entry k (entries of bvh().prims()).
   uint32_t leaf_triangle(size_t k) const { return triangle_of(m_bvh.prims()[k]); }
   Bounds3f bounds() const { return m_bvh.bounds(); }
-  // Bytes of the BVH's nodes, its leaf order and the triangle packets.
+  // Bytes of the BVH (nodes and leaf order), the triangle packets and the split map.
   size_t memory_bytes() const {
     return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket) +
            m_extra_tri.size() * sizeof(uint32_t);
