@@ -258,9 +258,30 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     std::vector<uint32_t> tri;
   };
   SplitReferences refs;
+  // Room for every extra piece from the start (any bounds them): the
+  // references are appended below without moving the first n.
+  reserve_huge(refs.bounds, n + size_t(any));
   refs.bounds.resize(n);
-  std::vector<Part> parts(static_cast<size_t>(chunks));
-  parallel_chunks(n, chunks, [&](size_t begin, size_t end, int ch) {
+  // The pieces' chunks are balanced by work, not by triangle count: the
+  // candidates may all sit in one stretch of the mesh (a sliver costs about a
+  // hundred times what an unsplit triangle does). Which chunk a triangle falls
+  // in changes nothing in the result (chunks are concatenated in order).
+  const int piece_chunks = any >= 256 ? std::max(chunks, std::max(1, threads)) : chunks;
+  std::vector<size_t> cut(static_cast<size_t>(piece_chunks) + 1, n);
+  cut[0] = 0;
+  if (piece_chunks > 1) {
+    constexpr uint64_t piece_weight = 128;  // one extra piece against one unsplit triangle
+    const uint64_t work = uint64_t(n) + piece_weight * any;
+    uint64_t acc = 0;
+    size_t c = 1;
+    for (size_t i = 0; i < n && c < cut.size() - 1; ++i) {
+      acc += 1 + piece_weight * extra[i];
+      while (c < cut.size() - 1 && acc * uint64_t(piece_chunks) >= work * c) cut[c++] = i + 1;
+    }
+  }
+  std::vector<Part> parts(static_cast<size_t>(piece_chunks));
+  parallel_chunks(size_t(piece_chunks), piece_chunks, [&](size_t first_chunk, size_t, int ch) {
+    const size_t begin = cut[first_chunk], end = cut[first_chunk + 1];
     Part& part = parts[size_t(ch)];
     size_t extras = 0;
     for (size_t i = begin; i < end; ++i) extras += extra[i];
@@ -285,7 +306,6 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
   });
   size_t count = 0;
   for (const auto& p : parts) count += p.tri.size();
-  refs.bounds.reserve(n + count);
   refs.extra_tri.reserve(count);
   for (auto& p : parts) {
     refs.bounds.insert(refs.bounds.end(), p.bounds.begin(), p.bounds.end());
