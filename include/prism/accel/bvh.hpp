@@ -712,6 +712,7 @@ class BVH {
     int sp = 0;
     uint32_t idx = 0;
     bool hit = false;
+    Float t_cull = t_max * widen;  // deferred entries beyond it are skipped
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
@@ -752,19 +753,25 @@ class BVH {
           idx = node.child[l];
           continue;
         }
-        if (leaf(node.child[l], node.count[l], t_max)) hit = true;
+        if (leaf(node.child[l], node.count[l], t_max)) {
+          hit = true;
+          t_cull = t_max * widen;
+        }
       }
       // Pop, skipping entries that a closer hit has since made unreachable
       // (exactly intersect_node's test with the lowered t_max).
       for (;;) {
         if (sp == 0) return hit;
         const Entry& e = stack[--sp];
-        if (hit && !(e.t <= t_max * widen)) continue;
+        if (!(e.t <= t_cull)) continue;
         if (e.count == detail::BVHWideNode::interior) {
           idx = e.child;
           break;
         }
-        if (leaf(e.child, e.count, t_max)) hit = true;
+        if (leaf(e.child, e.count, t_max)) {
+          hit = true;
+          t_cull = t_max * widen;
+        }
       }
     }
   }
