@@ -455,5 +455,7 @@ TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel
     BVHBuildOptions o;
     o.split_threshold = threshold;
     CHECK_THROWS_AS(MeshAccel(m, o), Error);
+    o.split_budget = 0;  // refused with splitting off too
+    CHECK_THROWS_AS(MeshAccel(m, o), Error);
   }
 }

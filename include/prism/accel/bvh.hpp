@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <cstring>
 #include <future>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <span>
@@ -267,11 +268,12 @@ inline Float quant_scale(uint8_t e) { return std::bit_cast<Float>(uint32_t(e) <<
 inline Float dequantize(Float origin, uint8_t e, int q) { return origin + Float(q) * quant_scale(e); }
 
 // Fills the boxes of a quantized node from the k children's float boxes (see
-// BVHQuantWideNode for why the result contains them); links are zeroed.
+// BVHQuantWideNode for why the result contains them); the links (child,
+// count) are left as they are.
 inline void set_boxes(BVHQuantWideNode& n, const Bounds3f* box, int k) {
   constexpr int W = wide_width;
   constexpr int max_e = 246;  // scale 2^119: 255 * scale stays below 2^127
-  n = BVHQuantWideNode{};
+  std::fill(std::begin(n.q), std::end(n.q), uint8_t(0));
   n.lanes = uint8_t((1u << k) - 1);
   for (int a = 0; a < 3; ++a) {
     uint8_t* qlo = n.q + 2 * W * a;
@@ -331,16 +333,14 @@ inline Bounds3f dequantized_box(const BVHQuantWideNode& n, int l) {
   }
   return b;
 }
+// The same for a float node: lanes from k on get the empty box (+inf, -inf).
 inline void set_boxes(BVHFloatWideNode& n, const Bounds3f* box, int k) {
   constexpr int W = wide_width;
-  for (int l = 0; l < W; ++l) {
+  for (int l = 0; l < W; ++l)
     for (int a = 0; a < 3; ++a) {
       n.b[2 * W * a + l] = l < k ? box[l].min[a] : infinity;
       n.b[2 * W * a + W + l] = l < k ? box[l].max[a] : -infinity;
     }
-    n.child[l] = 0;
-    n.count[l] = 0;
-  }
 }
 
 #if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
@@ -625,20 +625,13 @@ class BVH {
     std::vector<Bounds3f> node_box(nw);
     for (size_t w = nw; w-- > 0;) {
       detail::BVHWideNode& n = m_wide[w];
-      uint32_t child[W], count[W];
       int k = 0;
       Bounds3f all;
       for (; k < W && n.count[k] != 0; ++k) {
-        child[k] = n.child[k];
-        count[k] = n.count[k];
-        if (count[k] == detail::BVHWideNode::interior) lane[w][size_t(k)] = node_box[child[k]];
+        if (n.count[k] == detail::BVHWideNode::interior) lane[w][size_t(k)] = node_box[n.child[k]];
         all = union_bounds(all, lane[w][size_t(k)]);
       }
-      detail::set_boxes(n, lane[w].data(), k);
-      for (int l = 0; l < k; ++l) {
-        n.child[l] = child[l];
-        n.count[l] = count[l];
-      }
+      detail::set_boxes(n, lane[w].data(), k);  // keeps the links
       node_box[w] = all;
     }
     m_bounds = node_box[0];
@@ -1376,7 +1369,7 @@ class BVH {
     int k = plan.children(bin, kids);
     Bounds3f boxes[W];
     for (int l = 0; l < k; ++l) boxes[l] = m_nodes[kids[l]].bounds();
-    detail::BVHWideNode node;
+    detail::BVHWideNode node{};  // unused lanes: child 0, count 0
     detail::set_boxes(node, boxes, k);
     uint32_t next = w + 1;
     for (int l = 0; l < k; ++l) {

@@ -24,15 +24,17 @@
 // total within the budget. The cap keeps a few slivers in a large mesh from
 // taking the whole budget. A triangle with k extra
 // references is cut recursively: the current reference box is halved at the
-// midpoint of its longest axis, the triangle is clipped exactly against each
-// half (Sutherland-Hodgman), each half's reference box is the box of its
-// clipped polygon, padded by its rounding error and kept inside the half, and
-// the remaining k - 1 references are shared between the halves in proportion
-// to their boxes' areas.
+// midpoint of its longest axis, the triangle is clipped against each half
+// grown by a bound on the clipping's rounding (Sutherland-Hodgman), each
+// half's reference box is the box of its clipped polygon, grown by the same
+// bound and kept inside the half (clipped_reference), and the remaining
+// k - 1 references are shared between the halves in proportion to their
+// boxes' areas.
 //
 // Conservative: the union of a triangle's reference boxes contains the whole
-// triangle (the clipped vertices are within the padding of the exact ones;
-// a half whose clip comes out empty leaves its parent box unsplit). The
+// triangle (every point of the triangle inside a half is in that half's
+// box, clipped_reference gives the argument; a half whose clip comes out
+// empty leaves its parent box unsplit). The
 // result does not depend on the thread count: per-triangle work is
 // independent, counts are summed as integers, and chunks are concatenated in
 // triangle order.
@@ -108,25 +110,47 @@ inline int clip_triangle_to_box(const Point3f& a, const Point3f& b, const Point3
   return n;
 }
 
-// The reference box of triangle (a, b, c) inside `half`: the box of the
-// clipped polygon, padded by a bound on the clipping's rounding error (each
-// new vertex is an interpolation p + t (q - p) with t rounded, within about 4
-// units in the last place of the triangle's largest coordinate magnitude per
-// axis, for each of up to six chained clips: 32 epsilon covers them), then
-// intersected with `half`. Empty if the clip is.
+// The reference box of triangle (a, b, c) inside `half`: the triangle is
+// clipped to `half` grown by a margin m per axis, the clipped polygon's box is
+// grown by m too and then intersected with `half`. Empty if the clip is.
+//
+// Why it contains the part of the triangle inside `half`, whatever the
+// rounding. Per axis, let m = 128 epsilon * M, M the largest coordinate
+// magnitude of the triangle's box (which holds every clipped vertex: a new
+// vertex is clamped to its edge's extent). A new vertex p + t (q - p) is
+// within h = 11 epsilon M of the exact crossing of the computed edge pq
+// (first order: the sum, the product and the difference each round once,
+// and t, a quotient of two rounded differences, is within 3 epsilon of its
+// value); kept vertices are exact. So after each clip, every point of the
+// exact clip of the previous computed polygon is within h of the new one
+// (the same convex combination of the rounded vertices). By induction, after
+// k clips every point x of the triangle inside `half` is within k h of a point
+// x' of the computed polygon; as long as k h <= m, x' lies inside the next
+// grown plane (x lies inside the plane itself), so x' survives that clip's
+// exact version and the induction goes on. After the six planes x is within
+// 6 h = 66 epsilon M < m of the polygon, hence in its box grown by m. Without
+// the grown planes this fails where a polygon edge grazes a clipping plane: a
+// point of the triangle just inside the plane may have its computed
+// neighbour just outside it, and the part of the polygon lost with it can be
+// far longer than the rounding.
 inline Bounds3f clipped_reference(const Point3f& a, const Point3f& b, const Point3f& c, const Bounds3f& tri_box,
                                   const Bounds3f& half) {
+  constexpr Float k = 128 * std::numeric_limits<Float>::epsilon();
+  Float margin[3];
+  Bounds3f grown = half;
+  for (int ax = 0; ax < 3; ++ax) {
+    margin[ax] = k * std::max(std::abs(tri_box.min[ax]), std::abs(tri_box.max[ax]));
+    grown.min[ax] = half.min[ax] - margin[ax];
+    grown.max[ax] = half.max[ax] + margin[ax];
+  }
   Point3f poly[10];
-  int n = clip_triangle_to_box(a, b, c, half, poly);
+  int n = clip_triangle_to_box(a, b, c, grown, poly);
   Bounds3f r;
   if (n == 0) return r;
   for (int i = 0; i < n; ++i) r = union_bounds(r, poly[i]);
-  constexpr Float k = 32 * std::numeric_limits<Float>::epsilon();
   for (int ax = 0; ax < 3; ++ax) {
-    Float mag = std::max(std::abs(tri_box.min[ax]), std::abs(tri_box.max[ax]));
-    Float pad = k * mag;
-    r.min[ax] = std::max(r.min[ax] - pad, half.min[ax]);
-    r.max[ax] = std::min(r.max[ax] + pad, half.max[ax]);
+    r.min[ax] = std::max(r.min[ax] - margin[ax], half.min[ax]);
+    r.max[ax] = std::min(r.max[ax] + margin[ax], half.max[ax]);
   }
   return r;
 }
@@ -135,7 +159,7 @@ inline Bounds3f clipped_reference(const Point3f& a, const Point3f& b, const Poin
 // fewer, where a box cannot be halved or a clip comes out empty).
 inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
                            std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
-  const Bounds3f tri_box = union_bounds(union_bounds(Bounds3f(a), b), c);
+  const Bounds3f tri_box = triangle_box(a, b, c);
   struct Item {
     Bounds3f box;
     uint32_t extra;
@@ -178,12 +202,18 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
 // per triangle (a fraction: 0.3 = up to 30% more references than triangles)
 // among the triangles whose box-to-area ratio reaches `threshold`. Empty when
 // no triangle is split (the caller then builds over the triangles as they are).
-template <class Vertices>
-SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, float threshold, int threads) {
+// Throws prism::Error unless the budget is finite and >= 0 and the threshold
+// finite and >= 1 (checked whether or not splitting is on).
+inline void check_split_options(float budget, float threshold) {
   if (!(budget >= 0) || !std::isfinite(budget))
     throw Error("BVHBuildOptions::split_budget must be a finite number >= 0, got " + std::to_string(budget));
   if (!(threshold >= 1) || !std::isfinite(threshold))
     throw Error("BVHBuildOptions::split_threshold must be a finite number >= 1, got " + std::to_string(threshold));
+}
+
+template <class Vertices>
+SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, float threshold, int threads) {
+  check_split_options(budget, threshold);
   const uint64_t total = uint64_t(double(budget) * double(n));
   if (double(n) + double(total) > double(UINT32_MAX))
     throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
@@ -201,7 +231,7 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     for (size_t i = begin; i < end; ++i) {
       Point3f v[3];
       vertices(i, v);
-      Bounds3f box = union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]);
+      Bounds3f box = triangle_box(v[0], v[1], v[2]);
       double area2 = double(length(cross(v[1] - v[0], v[2] - v[0])));  // twice the area
       double sa = double(box.surface_area());
       // Zero-area triangles are never hit: no reason to cut them.
@@ -293,7 +323,7 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
       Point3f v[3];
       vertices(i, v);
       if (extra[i] == 0) {
-        refs.bounds[i] = union_bounds(union_bounds(Bounds3f(v[0]), v[1]), v[2]);
+        refs.bounds[i] = triangle_box(v[0], v[1], v[2]);
         continue;
       }
       pieces.clear();

@@ -38,7 +38,7 @@ namespace detail {
 // The bounds of triangle i of `mesh`, for BVH::build and BVH::refit.
 inline auto triangle_bounds(const TriangleMesh& mesh) {
   return [p = mesh.positions.data(), idx = mesh.indices.data()](size_t i) {
-    return union_bounds(union_bounds(Bounds3f(p[idx[3 * i]]), p[idx[3 * i + 1]]), p[idx[3 * i + 2]]);
+    return triangle_box(p[idx[3 * i]], p[idx[3 * i + 1]], p[idx[3 * i + 2]]);
   };
 }
 }  // namespace detail
@@ -62,6 +62,7 @@ class MeshAccel {
     BVHBuildOptions opt = options;
     opt.leaf_block = triangle_packet_width;
     m_threads = detail::build_threads(opt.threads);
+    detail::check_split_options(opt.split_budget, opt.split_threshold);
     detail::SplitReferences refs;
     if (opt.split_budget != 0.0f) {
       const Point3f* p = mesh.positions.data();

@@ -13,6 +13,7 @@
 #include <optional>
 #include <vector>
 #include "prism/geometry/interaction.hpp"
+#include "prism/math/bounds.hpp"
 
 namespace prism {
 
@@ -29,6 +30,11 @@ struct TriangleMesh {
 
   size_t triangle_count() const { return indices.size() / 3; }
 };
+
+// The box of the triangle (a, b, c).
+inline Bounds3f triangle_box(const Point3f& a, const Point3f& b, const Point3f& c) {
+  return union_bounds(union_bounds(Bounds3f(a), b), c);
+}
 
 // Per-ray set-up of the watertight test: the axis permutation that makes z the
 // direction's largest component, and the shear that aligns the ray with +z.
