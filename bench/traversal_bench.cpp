@@ -31,7 +31,8 @@
 // --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
 // stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
-// watertight.csv (edge rays: misses of each library) beside it.
+// watertight.csv (edge rays: misses of each library, at the procedural mesh
+// and at a closed tube of slivers that pre-splitting cuts) beside it.
 #include <embree3/rtcore.h>
 #ifdef PRISM_BENCH_HAS_GLTF
 #include <tiny_gltf.h>
@@ -192,6 +193,32 @@ TriangleMesh make_sliver_scene() {
     uint32_t b = uint32_t(m.positions.size());
     for (const Point3f& p : ball.positions) m.positions.push_back(Point3f(Vector3f(p) * r + at));
     for (uint32_t i : ball.indices) m.indices.push_back(b + i);
+  }
+  return m;
+}
+
+// A closed tube of n long slivers around a diagonal axis (about 54 long, radius
+// 4), each end a fan of n thin triangles: 4n triangles, every one a
+// candidate for pre-splitting. For the edge rays with pre-splitting on.
+constexpr Point3f tube_c0{-16, -12, -18}, tube_c1{16, 12, 18};  // about 54 apart
+TriangleMesh make_sliver_tube(int n) {
+  const Point3f c0 = tube_c0, c1 = tube_c1;
+  Vector3f w = normalize(c1 - c0);
+  Vector3f u = normalize(cross(w, Vector3f{1, 0, 0}));
+  Vector3f v = cross(w, u);
+  TriangleMesh m;
+  for (int i = 0; i < n; ++i) {  // vertex 2i on the c0 ring, 2i + 1 on the c1 ring
+    Float a = 2 * pi * Float(i) / Float(n);
+    Vector3f off = (u * std::cos(a) + v * std::sin(a)) * 4.0f;
+    m.positions.push_back(c0 + off);
+    m.positions.push_back(c1 + off);
+  }
+  const uint32_t un = uint32_t(n), centre0 = 2 * un, centre1 = centre0 + 1;
+  m.positions.push_back(c0);
+  m.positions.push_back(c1);
+  for (uint32_t i = 0; i < un; ++i) {
+    uint32_t j = (i + 1) % un, b0 = 2 * i, b1 = 2 * j, t0 = b0 + 1, t1 = b1 + 1;
+    m.indices.insert(m.indices.end(), {b0, b1, t1, b0, t1, t0, centre0, b1, b0, centre1, t0, t1});
   }
   return m;
 }
@@ -623,12 +650,20 @@ void occluded_embree(RTCScene s, const std::vector<BenchRay>& rays, int threads,
 // through a crack between triangles. Half the rays go to vertices, half to
 // edge points. Counts the misses of prism and of Embree (default, non-robust
 // build) on the same rays.
+//
+// Each ray must also pass into the mesh at its target: one that only touches
+// the mesh there (a tangent at a silhouette or along a crease) may miss by
+// its rounding. Without `inside`, the ray comes from the target's direction
+// as seen from the centre (the mesh must be star-shaped about it, like the
+// displaced sphere); with it, the ray goes from the target towards the point
+// inside(target, rng), which must lie well inside a convex mesh.
 struct WatertightRow {
   std::string mesh;
   size_t rays, prism_misses, embree_misses;
 };
 
-WatertightRow run_watertight(const std::string& name, const TriangleMesh& mesh, size_t count) {
+WatertightRow run_watertight(const std::string& name, const TriangleMesh& mesh, size_t count,
+                             const std::function<Point3f(const Point3f&, PCG32&)>& inside = {}) {
   SceneAccel prism_scene;
   prism_scene.add_mesh_instance(prism_scene.add_mesh(mesh));
   prism_scene.build();
@@ -648,6 +683,12 @@ WatertightRow run_watertight(const std::string& name, const TriangleMesh& mesh, 
     Point3f p1 = mesh.positions[mesh.indices[3 * t + size_t((k + 1) % 3)]];
     Float u = rng.next_float();
     Point3f target = i % 2 == 0 ? p0 : p0 + (p1 - p0) * u;
+    if (inside) {
+      Vector3f d = normalize(inside(target, rng) - target);
+      Point3f o = target - d * far;
+      rays.push_back({o, normalize(target - o), infinity});
+      continue;
+    }
     // From outside, roughly from the direction of the target as seen from the centre.
     Vector3f dir = normalize(target - c) + sample_uniform_sphere({rng.next_float(), rng.next_float()}) * 0.5f;
     Point3f o = c + normalize(dir) * far;
@@ -986,6 +1027,16 @@ int main(int argc, char** argv) {
   std::vector<WatertightRow> wt;
   wt.push_back(run_watertight("procedural", sphere, 1000000));
   run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
+  // Edge rays into the tube: towards a point at least 1 inside either end and
+  // at most half as far from the axis as the target.
+  wt.push_back(run_watertight("sliver_tube", make_sliver_tube(65536), 1000000, [](const Point3f& p, PCG32& r) {
+    Vector3f w = normalize(tube_c1 - tube_c0);
+    Float len = length(tube_c1 - tube_c0);
+    Float along = dot(p - tube_c0, w);
+    Point3f axis = tube_c0 + w * along;
+    Float a = std::clamp(along + (r.next_float() - 0.5f) * 10, 1.0f, len - 1);
+    return tube_c0 + w * a + (p - axis) * (0.5f * r.next_float());
+  }));
 
 #ifdef PRISM_BENCH_HAS_GLTF
   if (fs::exists(opt.gltf)) {
