@@ -24,17 +24,17 @@
 // total within the budget. The cap keeps a few slivers in a large mesh from
 // taking the whole budget. A triangle with k extra
 // references is cut recursively: the current reference box is halved at the
-// midpoint of its longest axis, the triangle is clipped against each half
-// grown by a bound on the clipping's rounding (Sutherland-Hodgman), each
-// half's reference box is the box of its clipped polygon, grown by the same
-// bound and kept inside the half (clipped_reference), and the remaining
-// k - 1 references are shared between the halves in proportion to their
-// boxes' areas.
+// midpoint of its longest axis, the polygon it was made from (at first the
+// triangle) is clipped by the split plane moved outwards by a bound on the
+// rounding so far (Sutherland-Hodgman, one plane per half), each half's
+// reference box is the box of its polygon grown by that bound and kept
+// inside the half, and the remaining k - 1 references are shared between the
+// halves in proportion to their boxes' areas.
 //
 // Conservative: the union of a triangle's reference boxes contains the whole
 // triangle (every point of the triangle inside a half is in that half's
-// box, clipped_reference gives the argument; a half whose clip comes out
-// empty leaves its parent box unsplit). The
+// box, split_triangle gives the argument; a half whose clip comes out empty
+// leaves its parent box unsplit). The
 // result does not depend on the thread count: per-triangle work is
 // independent, counts are summed as integers, and chunks are concatenated in
 // triangle order.
@@ -64,45 +64,49 @@ struct SplitReferences {
   uint32_t triangle(size_t k) const { return k < triangles() ? uint32_t(k) : extra_tri[k - triangles()]; }
 };
 
+// Clips the convex polygon in[0..n) to the closed half-space of the plane
+// `plane` on `axis` (side 0: coordinates <= plane, side 1: >= plane); writes
+// the result, at most n + 1 vertices, to out and returns their count (0:
+// empty). A vertex created on the plane gets the plane's coordinate exactly
+// and stays within its edge's extent on the other axes.
+inline int clip_polygon(const Point3f* in, int n, int axis, int side, Float plane, Point3f* out) {
+  auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] <= plane : p[axis] >= plane; };
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const Point3f& p = in[i];
+    const Point3f& q = in[i + 1 == n ? 0 : i + 1];
+    bool pi = inside(p), qi = inside(q);
+    if (pi) out[m++] = p;
+    if (pi != qi) {
+      Float t = (plane - p[axis]) / (q[axis] - p[axis]);
+      Point3f x;
+      for (int k = 0; k < 3; ++k) {
+        Float v = p[k] + t * (q[k] - p[k]);
+        x[k] = std::clamp(v, std::min(p[k], q[k]), std::max(p[k], q[k]));
+      }
+      x[axis] = plane;
+      out[m++] = x;
+    }
+  }
+  return m;
+}
+
 // The convex polygon of triangle (a, b, c) clipped to box `box` (closed); its
-// vertices, at most 9, in *out; returns their count (0: empty). Vertices
-// created on a plane get that plane's coordinate exactly.
+// vertices, at most 9, in *out; returns their count (0: empty).
 inline int clip_triangle_to_box(const Point3f& a, const Point3f& b, const Point3f& c, const Bounds3f& box,
                                 Point3f* out) {
-  Point3f buf[2][10];
-  int n = 3;
-  buf[0][0] = a;
-  buf[0][1] = b;
-  buf[0][2] = c;
-  int cur = 0;
+  Point3f buf[2][10] = {{a, b, c}, {}};
+  int n = 3, cur = 0;
   for (int axis = 0; axis < 3; ++axis)
     for (int side = 0; side < 2; ++side) {
-      const Float plane = side == 0 ? box.min[axis] : box.max[axis];
-      auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] >= plane : p[axis] <= plane; };
-      const Point3f* in = buf[cur];
+      const Float plane = side == 0 ? box.max[axis] : box.min[axis];
       bool all_in = true;
-      for (int i = 0; i < n; ++i) all_in = all_in && inside(in[i]);
-      if (all_in) continue;
-      Point3f* o = buf[1 - cur];
-      int m = 0;
       for (int i = 0; i < n; ++i) {
-        const Point3f& p = in[i];
-        const Point3f& q = in[(i + 1) % n];
-        bool pi = inside(p), qi = inside(q);
-        if (pi) o[m++] = p;
-        if (pi != qi) {
-          Float t = (plane - p[axis]) / (q[axis] - p[axis]);
-          Point3f x;
-          for (int k = 0; k < 3; ++k) {
-            Float v = p[k] + t * (q[k] - p[k]);
-            // Keep the vertex on its edge's extent despite rounding.
-            x[k] = std::clamp(v, std::min(p[k], q[k]), std::max(p[k], q[k]));
-          }
-          x[axis] = plane;
-          o[m++] = x;
-        }
+        Float x = buf[cur][i][axis];
+        all_in = all_in && (side == 0 ? x <= plane : x >= plane);
       }
-      n = m;
+      if (all_in) continue;
+      n = clip_polygon(buf[cur], n, axis, side, plane, buf[1 - cur]);
       cur = 1 - cur;
       if (n == 0) return 0;
     }
@@ -110,98 +114,123 @@ inline int clip_triangle_to_box(const Point3f& a, const Point3f& b, const Point3
   return n;
 }
 
-// The reference box of triangle (a, b, c) inside `half`: the triangle is
-// clipped to `half` grown by a margin m per axis, the clipped polygon's box is
-// grown by m too and then intersected with `half`. Empty if the clip is.
-//
-// Why it contains the part of the triangle inside `half`, whatever the
-// rounding. Per axis, let m = 128 epsilon * M, M the largest coordinate
-// magnitude of the triangle's box (which holds every clipped vertex: a new
-// vertex is clamped to its edge's extent). A new vertex p + t (q - p) is
-// within h = 11 epsilon M of the exact crossing of the computed edge pq
-// (first order: the sum, the product and the difference each round once,
-// and t, a quotient of two rounded differences, is within 3 epsilon of its
-// value); kept vertices are exact. So after each clip, every point of the
-// exact clip of the previous computed polygon is within h of the new one
-// (the same convex combination of the rounded vertices). By induction, after
-// k clips every point x of the triangle inside `half` is within k h of a point
-// x' of the computed polygon; as long as k h <= m, x' lies inside the next
-// grown plane (x lies inside the plane itself), so x' survives that clip's
-// exact version and the induction goes on. After the six planes x is within
-// 6 h = 66 epsilon M < m of the polygon, hence in its box grown by m. Without
-// the grown planes this fails where a polygon edge grazes a clipping plane: a
-// point of the triangle just inside the plane may have its computed
-// neighbour just outside it, and the part of the polygon lost with it can be
-// far longer than the rounding.
-inline Bounds3f clipped_reference(const Point3f& a, const Point3f& b, const Point3f& c, const Bounds3f& tri_box,
-                                  const Bounds3f& half) {
-  constexpr Float k = 128 * std::numeric_limits<Float>::epsilon();
-  Float margin[3];
-  Bounds3f grown = half;
-  for (int ax = 0; ax < 3; ++ax) {
-    margin[ax] = k * std::max(std::abs(tri_box.min[ax]), std::abs(tri_box.max[ax]));
-    grown.min[ax] = half.min[ax] - margin[ax];
-    grown.max[ax] = half.max[ax] + margin[ax];
-  }
-  Point3f poly[10];
-  int n = clip_triangle_to_box(a, b, c, grown, poly);
-  Bounds3f r;
-  if (n == 0) return r;
-  for (int i = 0; i < n; ++i) r = union_bounds(r, poly[i]);
-  for (int ax = 0; ax < 3; ++ax) {
-    r.min[ax] = std::max(r.min[ax] - margin[ax], half.min[ax]);
-    r.max[ax] = std::min(r.max[ax] + margin[ax], half.max[ax]);
-  }
-  return r;
-}
+// The rounding of one clip (clip_polygon), per axis, in units of epsilon
+// times the largest coordinate magnitude M of the triangle's box (which
+// holds every clipped vertex: a new vertex is clamped to its edge's extent):
+// a new vertex p + t (q - p) is within 11 of them of the exact crossing of
+// the computed edge pq (first order: the sum, the product and the difference
+// each round once, and t, a quotient of two rounded differences, is within 3
+// epsilon of its value); kept vertices are exact. 16 leaves room for the
+// second-order terms.
+inline constexpr Float clip_rounding = 16 * std::numeric_limits<Float>::epsilon();
+
+// A reference of a triangle being split: its box, its share of the extra
+// references, and the clipped polygon it was made from (see split_triangle).
+struct SplitPiece {
+  static constexpr int max_vertices = 16;
+  Bounds3f box;
+  uint32_t extra = 0;
+  int n = 0, clips = 0;
+  Point3f poly[max_vertices];
+};
 
 // Appends the references of triangle `t` with `extra` extra references (or
 // fewer, where a box cannot be halved or a clip comes out empty).
+//
+// Why they contain the triangle, whatever the rounding. A reference is a box
+// B, inside the half H of its parent's box that it was made for, and a
+// computed convex polygon P, the result of k clips, with the invariant: every
+// point x of the triangle inside H lies within e_k = k h of P per axis (h =
+// clip_rounding M). The first reference is the triangle's box and the
+// triangle itself, k = 0. B is P's box grown by e_k and kept inside H, so it
+// holds every such x.
+//
+// A reference is split at the midpoint of B's longest axis into halves H'
+// (each inside H). P is clipped by the split plane moved outwards by
+// g = (k + 1) h >= e_k. For x of the triangle inside H', the invariant gives
+// x' in P within e_k of x; x lies inside the plane, so x' lies inside the
+// moved one and survives that clip's exact version; the computed clip moves
+// the polygon by at most h (the same convex combination of the rounded
+// vertices), so x is within e_k + h = e_(k+1) of the new polygon P'. The
+// half's box is P''s box grown by e_(k+1), kept inside H'. Without the moved
+// plane this fails where an edge of P grazes the plane: a point of the
+// triangle just inside it may have its computed neighbour just outside, and
+// the part of the polygon lost with it can be far longer than the rounding.
+//
+// Each clip can add a vertex. A polygon with no room left is computed anew
+// from the triangle and B (its six planes moved out by 5 h; every x is then
+// within 6 h of it by the same induction).
 inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
                            std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
   const Bounds3f tri_box = triangle_box(a, b, c);
-  struct Item {
-    Bounds3f box;
-    uint32_t extra;
+  Float unit[3];  // h per axis
+  for (int ax = 0; ax < 3; ++ax)
+    unit[ax] = clip_rounding * std::max(std::abs(tri_box.min[ax]), std::abs(tri_box.max[ax]));
+  auto emit = [&](const Bounds3f& box) {
+    out_bounds.push_back(box);
+    out_tri.push_back(t);
   };
-  std::vector<Item> stack{{tri_box, extra}};
+  std::vector<SplitPiece> stack(1);
+  stack[0].box = tri_box;
+  stack[0].extra = extra;
+  stack[0].n = 3;
+  stack[0].poly[0] = a;
+  stack[0].poly[1] = b;
+  stack[0].poly[2] = c;
+  SplitPiece half[2];  // 0: below the split plane, 1: above it
   while (!stack.empty()) {
-    Item it = stack.back();
+    SplitPiece it = stack.back();
     stack.pop_back();
-    if (it.extra == 0) {
-      out_bounds.push_back(it.box);
-      out_tri.push_back(t);
+    const Bounds3f& box = it.box;
+    int axis = box.max_extent();
+    Float lo = box.min[axis], hi = box.max[axis];
+    Float mid = 0.5f * (lo + hi);
+    if (it.extra == 0 || !(mid > lo && mid < hi)) {
+      emit(box);
       continue;
     }
-    int axis = it.box.max_extent();
-    Float lo = it.box.min[axis], hi = it.box.max[axis];
-    Float mid = 0.5f * (lo + hi);
-    Bounds3f lh = it.box, rh = it.box;
-    lh.max[axis] = mid;
-    rh.min[axis] = mid;
-    Bounds3f l, r;
-    if (mid > lo && mid < hi) {
-      l = clipped_reference(a, b, c, tri_box, lh);
-      r = clipped_reference(a, b, c, tri_box, rh);
+    if (it.n == SplitPiece::max_vertices) {  // no room for a new vertex: start again from the triangle
+      Bounds3f grown = box;
+      for (int ax = 0; ax < 3; ++ax) {
+        grown.min[ax] -= 5 * unit[ax];
+        grown.max[ax] += 5 * unit[ax];
+      }
+      it.n = clip_triangle_to_box(a, b, c, grown, it.poly);
+      it.clips = 6;
     }
-    if (l.empty() || r.empty()) {  // cannot split: keep the box whole
-      out_bounds.push_back(it.box);
-      out_tri.push_back(t);
+    const Float g = Float(it.clips + 1) * unit[axis];
+    bool ok = it.n > 0;
+    for (int side = 0; side < 2 && ok; ++side) {
+      SplitPiece& h = half[side];
+      h.clips = it.clips + 1;
+      h.n = clip_polygon(it.poly, it.n, axis, side, side == 0 ? mid + g : mid - g, h.poly);
+      ok = h.n > 0;
+      Bounds3f hb = box;
+      (side == 0 ? hb.max : hb.min)[axis] = mid;
+      Bounds3f r;
+      for (int i = 0; i < h.n; ++i) r = union_bounds(r, h.poly[i]);
+      for (int ax = 0; ax < 3; ++ax) {
+        Float e = Float(h.clips) * unit[ax];
+        r.min[ax] = std::max(r.min[ax] - e, hb.min[ax]);
+        r.max[ax] = std::min(r.max[ax] + e, hb.max[ax]);
+      }
+      h.box = r;
+    }
+    if (!ok) {  // cannot split: keep the box whole
+      emit(box);
       continue;
     }
     uint32_t rest = it.extra - 1;
-    double la = double(l.surface_area()), ra = double(r.surface_area());
+    double la = double(half[0].box.surface_area()), ra = double(half[1].box.surface_area());
     uint32_t nl = la + ra > 0 ? uint32_t(std::min(double(rest), std::floor(double(rest) * la / (la + ra) + 0.5))) : rest / 2;
-    // Right first on the stack: the left half's references come out first.
-    stack.push_back({r, rest - nl});
-    stack.push_back({l, nl});
+    half[0].extra = nl;
+    half[1].extra = rest - nl;
+    // The upper half first on the stack: the lower half's references come out first.
+    stack.push_back(half[1]);
+    stack.push_back(half[0]);
   }
 }
 
-// The references of mesh triangles for a budget of `budget` extra references
-// per triangle (a fraction: 0.3 = up to 30% more references than triangles)
-// among the triangles whose box-to-area ratio reaches `threshold`. Empty when
-// no triangle is split (the caller then builds over the triangles as they are).
 // Throws prism::Error unless the budget is finite and >= 0 and the threshold
 // finite and >= 1 (checked whether or not splitting is on).
 inline void check_split_options(float budget, float threshold) {
