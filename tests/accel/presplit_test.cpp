@@ -186,6 +186,37 @@ detail::SplitReferences refs_of(const TriangleMesh& m, float budget, int threads
       budget, BVHBuildOptions{}.split_threshold, threads);
 }
 
+// Of 400 points on triangle (a, b, c) (its vertices, points on its edges and
+// inside), how many lie in none of `boxes`.
+size_t uncovered_points(const Point3f& a, const Point3f& b, const Point3f& c, const std::vector<Bounds3f>& boxes,
+                        PCG32& rng) {
+  size_t uncovered = 0;
+  for (int s = 0; s < 400; ++s) {
+    Float u = rng.next_float(), v = rng.next_float();
+    if (s < 3) {
+      u = s == 1;
+      v = s == 2;
+    } else if (s < 100) {
+      v = (s % 3 == 0) ? 0 : (s % 3 == 1 ? 1 - u : v);
+      if (s % 3 == 2) u = 0;
+    } else if (u + v > 1) {
+      u = 1 - u;
+      v = 1 - v;
+    }
+    // In double, rounded once, kept inside the triangle's box: within half a
+    // float spacing of the exact point of the triangle.
+    Point3f p;
+    for (int k = 0; k < 3; ++k) {
+      double x = double(a[k]) + (double(b[k]) - double(a[k])) * u + (double(c[k]) - double(a[k])) * v;
+      p[k] = std::clamp(Float(x), std::min({a[k], b[k], c[k]}), std::max({a[k], b[k], c[k]}));
+    }
+    bool in = false;
+    for (const Bounds3f& box : boxes) in = in || box.inside(p);
+    uncovered += !in;
+  }
+  return uncovered;
+}
+
 // Near-equilateral triangles in random orientations: box area 2 to about 7
 // times twice the triangle's area, below the default threshold of 32.
 TriangleMesh well_shaped(int count, PCG32& rng) {
@@ -235,35 +266,44 @@ TEST_CASE("pre-split references cover their triangle and respect the budget", "[
           ++missing;
           continue;
         }
-        Point3f a = vtx(*mesh, t, 0), b = vtx(*mesh, t, 1), c = vtx(*mesh, t, 2);
-        for (int s = 0; s < 400; ++s) {
-          Float u = rng.next_float(), v = rng.next_float();
-          if (s < 3) {
-            u = s == 1;
-            v = s == 2;
-          } else if (s < 100) {
-            v = (s % 3 == 0) ? 0 : (s % 3 == 1 ? 1 - u : v);
-            if (s % 3 == 2) u = 0;
-          } else if (u + v > 1) {
-            u = 1 - u;
-            v = 1 - v;
-          }
-          // In double, rounded once, kept inside the triangle's box: within
-          // half a float spacing of the exact point of the triangle.
-          Point3f p;
-          for (int k = 0; k < 3; ++k) {
-            double x = double(a[k]) + (double(b[k]) - double(a[k])) * u + (double(c[k]) - double(a[k])) * v;
-            p[k] = std::clamp(Float(x), std::min({a[k], b[k], c[k]}), std::max({a[k], b[k], c[k]}));
-          }
-          bool in = false;
-          for (const Bounds3f& box : of[t]) in = in || box.inside(p);
-          uncovered += !in;
-        }
+        uncovered += uncovered_points(vtx(*mesh, t, 0), vtx(*mesh, t, 1), vtx(*mesh, t, 2), of[t], rng);
       }
       CHECK(missing == 0);
       CHECK(outside == 0);
       CHECK(uncovered == 0);
     }
+}
+
+TEST_CASE("a split triangle's references cover it also when its polygons are clipped anew", "[accel][presplit]") {
+  // split_triangle clips each reference's polygon by one plane; a polygon
+  // that has no room for another vertex is clipped anew from the triangle.
+  // With room for only 4 vertices that path runs at almost every split.
+  PCG32 rng(27, 0x5b1);
+  TriangleMesh m = random_long(300, rng);
+  size_t differ = 0;
+  for (uint32_t extra : {3u, 12u, 40u}) {
+    size_t outside = 0, uncovered = 0;
+    for (uint32_t t = 0; t < uint32_t(m.triangle_count()); ++t) {
+      Point3f a = vtx(m, t, 0), b = vtx(m, t, 1), c = vtx(m, t, 2);
+      Bounds3f tb = triangle_box(a, b, c);
+      std::vector<Bounds3f> boxes[2];
+      std::vector<uint32_t> tri;
+      for (int cap = 0; cap < 2; ++cap) {
+        detail::split_triangle(a, b, c, t, extra, boxes[cap], tri, cap == 0 ? 4 : detail::SplitPiece::max_vertices);
+        for (const Bounds3f& box : boxes[cap])
+          if (box.empty() || !tb.inside(box.min) || !tb.inside(box.max)) ++outside;
+        uncovered += uncovered_points(a, b, c, boxes[cap], rng);
+      }
+      differ += boxes[0].size() != boxes[1].size() ||
+                !std::equal(boxes[0].begin(), boxes[0].end(), boxes[1].begin(), [](const Bounds3f& x, const Bounds3f& y) {
+                  return std::memcmp(&x, &y, sizeof(Bounds3f)) == 0;
+                });
+    }
+    INFO(extra << " extra references per triangle");
+    CHECK(outside == 0);
+    CHECK(uncovered == 0);
+  }
+  CHECK(differ > 0);  // the clipping anew did run
 }
 
 TEST_CASE("pre-split references do not depend on the thread count", "[accel][presplit]") {

@@ -157,11 +157,14 @@ struct SplitPiece {
 // triangle just inside it may have its computed neighbour just outside, and
 // the part of the polygon lost with it can be far longer than the rounding.
 //
-// Each clip can add a vertex. A polygon with no room left is computed anew
-// from the triangle and B (its six planes moved out by 5 h; every x is then
+// Each clip can add a vertex. A polygon with no room left (`max_vertices`,
+// at most SplitPiece::max_vertices; tests lower it) is computed anew from
+// the triangle and B (its six planes moved out by 5 h; every x is then
 // within 6 h of it by the same induction).
 inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
-                           std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri) {
+                           std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri,
+                           int max_vertices = SplitPiece::max_vertices) {
+  max_vertices = std::clamp(max_vertices, 4, SplitPiece::max_vertices);
   const Bounds3f tri_box = triangle_box(a, b, c);
   Float unit[3];  // h per axis
   for (int ax = 0; ax < 3; ++ax)
@@ -189,7 +192,7 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
       emit(box);
       continue;
     }
-    if (it.n == SplitPiece::max_vertices) {  // no room for a new vertex: start again from the triangle
+    if (it.n >= max_vertices) {  // no room for a new vertex: start again from the triangle
       Bounds3f grown = box;
       for (int ax = 0; ax < 3; ++ax) {
         grown.min[ax] -= 5 * unit[ax];
