@@ -255,7 +255,7 @@ TEST_CASE("pre-split references cover their triangle and respect the budget", "[
       size_t outside = 0, uncovered = 0, missing = 0;
       for (size_t k = 0; k < r.size(); ++k) {
         uint32_t t = r.triangle(k);
-        Bounds3f tb = union_bounds(union_bounds(Bounds3f(vtx(*mesh, t, 0)), vtx(*mesh, t, 1)), vtx(*mesh, t, 2));
+        Bounds3f tb = triangle_box(vtx(*mesh, t, 0), vtx(*mesh, t, 1), vtx(*mesh, t, 2));
         const Bounds3f& b = r.bounds[k];
         if (b.empty() || !tb.inside(b.min) || !tb.inside(b.max)) ++outside;
         of[t].push_back(b);

@@ -99,14 +99,7 @@ inline int clip_triangle_to_box(const Point3f& a, const Point3f& b, const Point3
   int n = 3, cur = 0;
   for (int axis = 0; axis < 3; ++axis)
     for (int side = 0; side < 2; ++side) {
-      const Float plane = side == 0 ? box.max[axis] : box.min[axis];
-      bool all_in = true;
-      for (int i = 0; i < n; ++i) {
-        Float x = buf[cur][i][axis];
-        all_in = all_in && (side == 0 ? x <= plane : x >= plane);
-      }
-      if (all_in) continue;
-      n = clip_polygon(buf[cur], n, axis, side, plane, buf[1 - cur]);
+      n = clip_polygon(buf[cur], n, axis, side, side == 0 ? box.max[axis] : box.min[axis], buf[1 - cur]);
       cur = 1 - cur;
       if (n == 0) return 0;
     }
