@@ -5,6 +5,7 @@
 // does not depend on the thread count.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <cstring>
@@ -448,6 +449,110 @@ TEST_CASE("BVH builds over centroids closer than any float bin width", "[accel][
   report(compare(s, bvh, nullptr, 2000, rng));
 }
 
+TEST_CASE("the root split is the cheapest binned SAH split with empty bins and any leaf block", "[accel][bvh]") {
+  // The builder sweeps its bins without branching on empty ones and counts
+  // leaf costs in blocks with a shift (power-of-two blocks) or a division.
+  // Here the root's split is recomputed by brute force over the same 16 bins
+  // per axis: clustered centroids leave most bins empty, and leaf blocks of
+  // 1, 3 and 8 take both ways of counting blocks.
+  PCG32 rng(21, 0x5a4);
+  constexpr int bins = 16;
+  int checked = 0, mismatched = 0, unmatched = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    int block = trial % 3 == 0 ? 1 : trial % 3 == 1 ? 3 : 8;
+    size_t n = 20 + size_t(rng.next_bounded(280));
+    int clusters = 1 + int(rng.next_bounded(4));
+    std::vector<Point3f> centre(size_t(clusters) + 1);
+    for (auto& c : centre) c = {uniform(rng, -50, 50), uniform(rng, -50, 50), uniform(rng, -50, 50)};
+    std::vector<Bounds3f> b(n);
+    for (auto& x : b) {
+      Point3f c = centre[rng.next_bounded(uint32_t(centre.size()))];
+      Vector3f jitter{uniform(rng, -0.5f, 0.5f), uniform(rng, -0.5f, 0.5f), uniform(rng, -0.5f, 0.5f)};
+      Vector3f e{std::exp2(uniform(rng, -5, 1)), std::exp2(uniform(rng, -5, 1)), std::exp2(uniform(rng, -5, 1))};
+      x = Bounds3f(c + jitter - e, c + jitter + e);
+    }
+    BVHBuildOptions opt = keep_tree();
+    opt.leaf_block = block;
+    opt.threads = 1;
+    BVH bvh = BVH::build(b, opt);
+    const auto& nd = bvh.nodes();
+    REQUIRE(!nd[0].is_leaf());
+    // The primitives under the root's first child.
+    std::vector<uint32_t> left, todo{1};
+    while (!todo.empty()) {
+      uint32_t i = todo.back();
+      todo.pop_back();
+      if (nd[i].is_leaf()) {
+        for (uint32_t k = 0; k < nd[i].count; ++k) left.push_back(bvh.prims()[nd[i].offset + k]);
+      } else {
+        todo.push_back(i + 1);
+        todo.push_back(nd[i].offset);
+      }
+    }
+    std::sort(left.begin(), left.end());
+    // Every candidate split of the same bins and its cost.
+    Bounds3f cb;
+    for (const auto& x : b) cb = union_bounds(cb, x.centroid());
+    auto blocks = [&](size_t k) { return Float((k + size_t(block) - 1) / size_t(block)); };
+    Float best = infinity, chosen = -1;
+    for (int a = 0; a < 3; ++a) {
+      Float lo = cb.min[a];
+      if (!(cb.max[a] > lo)) continue;
+      Float k = Float(bins) * (1 - 1e-6f) / (cb.max[a] - lo);
+      std::vector<int> bin(n);
+      for (size_t i = 0; i < n; ++i) bin[i] = std::min(bins - 1, int((b[i].centroid()[a] - lo) * k));
+      for (int s = 0; s + 1 < bins; ++s) {
+        Bounds3f lb, rb;
+        std::vector<uint32_t> side;
+        for (size_t i = 0; i < n; ++i) {
+          if (bin[i] <= s) {
+            lb = union_bounds(lb, b[i]);
+            side.push_back(uint32_t(i));
+          } else {
+            rb = union_bounds(rb, b[i]);
+          }
+        }
+        if (side.empty() || side.size() == n) continue;
+        Float cost = blocks(side.size()) * lb.surface_area() + blocks(n - side.size()) * rb.surface_area();
+        best = std::min(best, cost);
+        if (side == left) chosen = cost;
+      }
+    }
+    ++checked;
+    if (chosen < 0) {
+      ++unmatched;
+    } else if (!(chosen <= best * (1 + 1e-5f))) {
+      ++mismatched;
+    }
+  }
+  INFO(checked << " roots, " << unmatched << " not a binned split, " << mismatched << " not the cheapest");
+  CHECK(unmatched == 0);
+  CHECK(mismatched == 0);
+}
+
+TEST_CASE("a range of one leaf block is a leaf unless node visits cost less than a block", "[accel][bvh]") {
+  // Eight boxes in two far clusters, leaf blocks of 8: one block, so with the
+  // default traversal cost (1) the whole range is one leaf, the shortcut the
+  // builder takes before binning; with traversal cost 0.1 splitting the
+  // clusters apart is cheaper, and the builder must still find that.
+  std::vector<Bounds3f> b;
+  for (int i = 0; i < 8; ++i) {
+    Float x = i < 4 ? -100.0f : 100.0f;
+    Point3f c{x + Float(i % 4), 0, 0};
+    b.push_back(Bounds3f(c - Vector3f{0.25f, 0.25f, 0.25f}, c + Vector3f{0.25f, 0.25f, 0.25f}));
+  }
+  BVHBuildOptions opt = keep_tree();
+  opt.leaf_block = 8;
+  BVH whole = BVH::build(b, opt);
+  CHECK(whole.nodes().size() == 1);
+  opt.traversal_cost = 0.1f;
+  BVH split = BVH::build(b, opt);
+  REQUIRE(split.nodes().size() >= 3);
+  CHECK(!split.nodes()[0].is_leaf());
+  CHECK(split.nodes()[1].is_leaf());
+  CHECK(split.nodes()[1].count == 4);
+}
+
 TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
   // Enough primitives for every parallel part of the build: subtrees on their
   // own threads (16K per subtree), chunked binning of the top levels (256K),
@@ -459,7 +564,7 @@ TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
     Vector3f e{std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2))};
     x = Bounds3f(c - e, c + e);
   }
-  for (int block : {1, 4}) {
+  for (int block : {1, 3, 4}) {
     auto build = [&](int threads) {
       BVHBuildOptions opt = keep_tree();
       opt.threads = threads;

@@ -844,6 +844,15 @@ class BVH {
       hi = _mm_max_ps(h, hi);
     }
     void grow(const BoxAcc& b) { grow(b.lo, b.hi); }
+    // Bounds3f::surface_area of a box that is not empty, from the registers:
+    // 2 ((dx dy + dz dx) + dy dz), the same value (products commute).
+    Float area() const {
+      __m128 d = _mm_sub_ps(hi, lo);
+      __m128 p = _mm_mul_ps(d, _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)));  // dx dy, dy dz, dz dx
+      Float xy = _mm_cvtss_f32(p), yz = _mm_cvtss_f32(_mm_shuffle_ps(p, p, 1)),
+            zx = _mm_cvtss_f32(_mm_shuffle_ps(p, p, 2));
+      return 2 * ((xy + zx) + yz);
+    }
     Bounds3f bounds() const {
       alignas(16) Float l[4], h[4];
       _mm_store_ps(l, lo);
@@ -857,6 +866,7 @@ class BVH {
     Bounds3f box;
     void grow(const Bounds3f& b) { box = union_bounds(box, b); }
     void grow(const BoxAcc& b) { grow(b.box); }
+    Float area() const { return box.surface_area(); }
     Bounds3f bounds() const { return box; }
 #endif
   };
@@ -878,10 +888,16 @@ class BVH {
     // traversal stacks (max_sah_depth + 32 entries) never overflow.
     static constexpr int max_sah_depth = 48;
 
-    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t), block(uint32_t(std::max(1, o.leaf_block))) {}
+    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t), block(uint32_t(std::max(1, o.leaf_block))) {
+      if (std::has_single_bit(block)) block_shift = std::countr_zero(block);
+    }
     uint32_t block;
-    // The cost of testing n primitives: the blocks they fill.
-    Float blocks(uint32_t n) const { return Float((n + block - 1) / block); }
+    int block_shift = -1;  // log2(block) when block is a power of two
+    // The cost of testing n primitives: the blocks they fill. (A division per
+    // SAH candidate otherwise; leaf blocks are powers of two in practice.)
+    Float blocks(uint32_t n) const {
+      return Float(block_shift >= 0 ? (n + block - 1) >> block_shift : (n + block - 1) / block);
+    }
 
     // The bin of centroid coordinate c: std::min(bin_count - 1, int((c - lo) * k)),
     // with NaN (from infinite bounds) in bin 0 rather than undefined.
@@ -916,6 +932,12 @@ class BVH {
         out[idx].count = n;
       };
       if (n == 1) return make_leaf();
+      // A range that fits one block is a leaf whatever the bins say: a leaf
+      // costs blocks(n) = 1 and a split at least traversal_cost + (A_l + A_r)
+      // / A >= 1 (and the ties, NaN costs and centroids that coincide all
+      // end in a leaf below too). Half of all nodes are such leaves, so
+      // binning them was a large part of the build.
+      if (n <= block && n <= uint32_t(opt.max_leaf_size) && opt.traversal_cost >= 1) return make_leaf();
       PrimRef* r = refs.get();
       Bounds3f lb, lc, rb, rc;  // children's bounds and centroid bounds
       uint32_t mid;
@@ -964,16 +986,23 @@ class BVH {
         // Adds the primitives of [b0, e0) to the bins bb, bn.
         auto bin_range = [&](uint32_t b0, uint32_t e0, BoxAcc (*bb)[bin_count], uint32_t (*bn)[bin_count]) {
 #ifdef PRISM_BVH_SSE
-          for (uint32_t i = b0; i < e0; ++i) {
-            __m128 l, h, c;
-            alignas(16) int bi[4];
-            _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
-            for (int a = 0; a < 3; ++a) {
-              if (!active_axis[a]) continue;
-              ++bn[a][bi[a]];
-              bb[a][bi[a]].grow(l, h);
+          // (Usually all three axes are binned: that loop without the test.)
+          auto bin_all = [&]<bool all_axes>(std::bool_constant<all_axes>) {
+            for (uint32_t i = b0; i < e0; ++i) {
+              __m128 l, h, c;
+              alignas(16) int bi[4];
+              _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
+              for (int a = 0; a < 3; ++a) {
+                if (!all_axes && !active_axis[a]) continue;
+                ++bn[a][bi[a]];
+                bb[a][bi[a]].grow(l, h);
+              }
             }
-          }
+          };
+          if (active_axis[0] && active_axis[1] && active_axis[2])
+            bin_all(std::true_type{});
+          else
+            bin_all(std::false_type{});
 #else
           for (uint32_t i = b0; i < e0; ++i) {
             Bounds3f b = r[i].bounds();
@@ -1011,40 +1040,36 @@ class BVH {
         } else {
           bin_range(begin, end, bin_b, bin_n);
         }
-        // A boundary after an empty bin splits like the one before it, so only
-        // boundaries after occupied bins are costed (the first of equal costs
-        // wins, as with a full sweep).
+        // The SAH at every bin boundary with primitives on both sides, without
+        // branches on the bins' contents (which bins are empty is data, and
+        // mispredicting it cost more than the sweep): an empty bin's box
+        // (+inf, -inf) leaves a running union as it is, and a boundary after
+        // an empty bin costs exactly what the one before it does, so the
+        // first of equal costs still wins.
         int best_axis = -1, best_split = 0;
         Float best_cost = infinity;
         for (int a = 0; a < 3; ++a) {
           if (!active_axis[a]) continue;
-          Float right_area[bin_count];
+          Float right_cost[bin_count];
           uint32_t right_n[bin_count];
           BoxAcc acc;
           uint32_t acc_n = 0;
-          Float acc_area = 0;
           for (int i = bin_count - 1; i > 0; --i) {
-            if (bin_n[a][i] != 0) {
-              acc.grow(bin_b[a][i]);
-              acc_n += bin_n[a][i];
-              acc_area = acc.bounds().surface_area();
-            }
-            right_area[i] = acc_area;
+            acc.grow(bin_b[a][i]);
+            acc_n += bin_n[a][i];
+            right_cost[i] = blocks(acc_n) * acc.area();  // used only where acc_n != 0
             right_n[i] = acc_n;
           }
           acc = BoxAcc{};
           acc_n = 0;
           for (int i = 0; i < bin_count - 1; ++i) {
-            if (bin_n[a][i] == 0) continue;
             acc.grow(bin_b[a][i]);
             acc_n += bin_n[a][i];
-            if (right_n[i + 1] == 0) continue;
-            Float cost = blocks(acc_n) * acc.bounds().surface_area() + blocks(right_n[i + 1]) * right_area[i + 1];
-            if (cost < best_cost) {
-              best_cost = cost;
-              best_axis = a;
-              best_split = i;
-            }
+            Float cost = blocks(acc_n) * acc.area() + right_cost[i + 1];
+            bool better = acc_n != 0 && right_n[i + 1] != 0 && cost < best_cost;
+            best_cost = better ? cost : best_cost;
+            best_axis = better ? a : best_axis;
+            best_split = better ? i : best_split;
           }
         }
 
