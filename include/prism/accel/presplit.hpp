@@ -156,7 +156,7 @@ struct SplitPiece {
 // within 6 h of it by the same induction).
 inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
                            std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri,
-                           int max_vertices = SplitPiece::max_vertices) {
+                           std::vector<SplitPiece>& stack, int max_vertices = SplitPiece::max_vertices) {
   max_vertices = std::clamp(max_vertices, 4, SplitPiece::max_vertices);
   const Bounds3f tri_box = triangle_box(a, b, c);
   Float unit[3];  // h per axis
@@ -166,23 +166,34 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
     out_bounds.push_back(box);
     out_tri.push_back(t);
   };
-  std::vector<SplitPiece> stack(1);
+  // A piece's polygon is copied only as far as it is used.
+  auto assign = [](SplitPiece& to, const SplitPiece& from) {
+    to.box = from.box;
+    to.extra = from.extra;
+    to.n = from.n;
+    to.clips = from.clips;
+    std::copy(from.poly, from.poly + from.n, to.poly);
+  };
+  stack.resize(1);
   stack[0].box = tri_box;
   stack[0].extra = extra;
   stack[0].n = 3;
+  stack[0].clips = 0;
   stack[0].poly[0] = a;
   stack[0].poly[1] = b;
   stack[0].poly[2] = c;
-  SplitPiece half[2];  // 0: below the split plane, 1: above it
+  SplitPiece upper;  // the half above the split plane; the lower half is made in a new slot
   while (!stack.empty()) {
-    SplitPiece it = stack.back();
-    stack.pop_back();
-    const Bounds3f& box = it.box;
+    // Room for the lower half first, so that `it` stays valid below.
+    if (stack.size() == stack.capacity()) stack.reserve(2 * stack.size());
+    SplitPiece& it = stack.back();
+    const Bounds3f box = it.box;
     int axis = box.max_extent();
     Float lo = box.min[axis], hi = box.max[axis];
     Float mid = 0.5f * (lo + hi);
     if (it.extra == 0 || !(mid > lo && mid < hi)) {
       emit(box);
+      stack.pop_back();
       continue;
     }
     if (it.n >= max_vertices) {  // no room for a new vertex: start again from the triangle
@@ -195,9 +206,10 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
       it.clips = 6;
     }
     const Float g = Float(it.clips + 1) * unit[axis];
+    SplitPiece& lower = stack.emplace_back();  // no reallocation: reserved above
     bool ok = it.n > 0;
     for (int side = 0; side < 2 && ok; ++side) {
-      SplitPiece& h = half[side];
+      SplitPiece& h = side == 0 ? lower : upper;
       h.clips = it.clips + 1;
       h.n = clip_polygon(it.poly, it.n, axis, side, side == 0 ? mid + g : mid - g, h.poly);
       ok = h.n > 0;
@@ -214,17 +226,27 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
     }
     if (!ok) {  // cannot split: keep the box whole
       emit(box);
+      stack.pop_back();
+      stack.pop_back();
       continue;
     }
     uint32_t rest = it.extra - 1;
-    double la = double(half[0].box.surface_area()), ra = double(half[1].box.surface_area());
+    double la = double(lower.box.surface_area()), ra = double(upper.box.surface_area());
     uint32_t nl = la + ra > 0 ? uint32_t(std::min(double(rest), std::floor(double(rest) * la / (la + ra) + 0.5))) : rest / 2;
-    half[0].extra = nl;
-    half[1].extra = rest - nl;
-    // The upper half first on the stack: the lower half's references come out first.
-    stack.push_back(half[1]);
-    stack.push_back(half[0]);
+    lower.extra = nl;
+    upper.extra = rest - nl;
+    // The upper half below the lower one on the stack (in the parent's
+    // slot): the lower half's references come out first.
+    assign(it, upper);
   }
+}
+
+// The same with a stack of its own.
+inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c, uint32_t t, uint32_t extra,
+                           std::vector<Bounds3f>& out_bounds, std::vector<uint32_t>& out_tri,
+                           int max_vertices = SplitPiece::max_vertices) {
+  std::vector<SplitPiece> stack;
+  split_triangle(a, b, c, t, extra, out_bounds, out_tri, stack, max_vertices);
 }
 
 // Throws prism::Error unless the budget is finite and >= 0 and the threshold
@@ -344,6 +366,7 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
     part.tri.reserve(extras);
     std::vector<Bounds3f> pieces;
     std::vector<uint32_t> piece_tri;
+    std::vector<SplitPiece> stack;
     for (size_t i = begin; i < end; ++i) {
       Point3f v[3];
       vertices(i, v);
@@ -353,7 +376,7 @@ SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, 
       }
       pieces.clear();
       piece_tri.clear();
-      split_triangle(v[0], v[1], v[2], uint32_t(i), extra[i], pieces, piece_tri);
+      split_triangle(v[0], v[1], v[2], uint32_t(i), extra[i], pieces, piece_tri, stack);
       refs.bounds[i] = pieces[0];
       part.bounds.insert(part.bounds.end(), pieces.begin() + 1, pieces.end());
       part.tri.insert(part.tri.end(), piece_tri.begin() + 1, piece_tri.end());
