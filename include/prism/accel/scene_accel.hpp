@@ -172,6 +172,28 @@ class MeshAccel {
     return left >= uint32_t(W) ? (1 << W) - 1 : (1 << left) - 1;
   }
 
+  // The lanes of a packet, given its leaf-order entries, that hold triangle
+  // `skip`. Unsplit, an entry is its triangle, and the lanes are compared at
+  // once (shadow rays to an area light skip the light's triangle in every
+  // packet they test).
+  int lanes_of_triangle(const uint32_t* entries, uint32_t skip) const {
+    int m = 0;
+    if (m_extra_tri.empty()) {
+#if defined(PRISM_BVH_SSE)
+      const __m128i s = _mm_set1_epi32(int(skip));
+      for (int h = 0; h < W; h += 4) {
+        __m128i e = _mm_loadu_si128(reinterpret_cast<const __m128i*>(entries + h));
+        m |= _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(e, s))) << h;
+      }
+#else
+      for (int l = 0; l < W; ++l) m |= int(entries[l] == skip) << l;
+#endif
+      return m;
+    }
+    for (int l = 0; l < W; ++l) m |= int(triangle_of(entries[l]) == skip) << l;
+    return m;
+  }
+
   // The queries for a ray whose largest direction component is KZ. The
   // watertight test's axis permutation is then a compile-time constant; the
   // arithmetic is unchanged.
@@ -209,9 +231,7 @@ class MeshAccel {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
         int lanes = lanes_of(count, j);
-        if (skip != UINT32_MAX)
-          for (int l = 0; l < W; ++l)
-            if (triangle_of(order[k * W + uint32_t(l)]) == skip) lanes &= ~(1 << l);
+        if (skip != UINT32_MAX) lanes &= ~lanes_of_triangle(order + size_t(k) * W, skip);
         if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
       }
       return false;
