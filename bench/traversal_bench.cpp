@@ -720,6 +720,19 @@ struct Options {
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
   float split_budget = BVHBuildOptions{}.split_budget;  // of prism's mesh builds (the library's default)
+  // The cases to run (--cases, comma-separated): procedural, slivers,
+  // watertight, metalroughspheres. All by default; A/B comparisons of a
+  // change usually need only one.
+  std::string cases = "procedural,slivers,watertight,metalroughspheres";
+  bool runs(const char* name) const {
+    for (size_t p = 0; p <= cases.size();) {
+      size_t q = cases.find(',', p);
+      if (q == std::string::npos) q = cases.size();
+      if (cases.compare(p, q - p, name) == 0) return true;
+      p = q + 1;
+    }
+    return false;
+  }
 };
 
 struct InstanceRow {
@@ -999,6 +1012,8 @@ int main(int argc, char** argv) {
       opt.record_cap = size_t(std::max(1, std::atoi(next().c_str())));
     } else if (a == "--split-budget") {
       opt.split_budget = std::strtof(next().c_str(), nullptr);
+    } else if (a == "--cases") {
+      opt.cases = next();
     } else if (a == "--threads") {
       opt.threads.clear();
       std::string s = next();
@@ -1012,7 +1027,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
-                   "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n",
+                   "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n"
+                   "       [--cases procedural,slivers,watertight,metalroughspheres (default: all)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
       return a == "--help" || a == "-h" ? 0 : 2;
     }
@@ -1022,24 +1038,28 @@ int main(int argc, char** argv) {
               RTC_VERSION_MINOR, RTC_VERSION_PATCH, opt.reps, opt.res, opt.res);
   std::vector<CsvRow> rows;
 
-  TriangleMesh sphere = make_displaced_sphere(289);
-  run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
   std::vector<WatertightRow> wt;
-  wt.push_back(run_watertight("procedural", sphere, 1000000));
-  run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
+  if (opt.runs("procedural") || opt.runs("watertight")) {
+    TriangleMesh sphere = make_displaced_sphere(289);
+    if (opt.runs("procedural")) run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
+    if (opt.runs("watertight")) wt.push_back(run_watertight("procedural", sphere, 1000000));
+  }
+  if (opt.runs("slivers")) run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
   // Edge rays into the tube: towards a point at least 1 inside either end and
   // at most half as far from the axis as the target.
-  wt.push_back(run_watertight("sliver_tube", make_sliver_tube(65536), 1000000, [](const Point3f& p, PCG32& r) {
-    Vector3f w = normalize(tube_c1 - tube_c0);
-    Float len = length(tube_c1 - tube_c0);
-    Float along = dot(p - tube_c0, w);
-    Point3f axis = tube_c0 + w * along;
-    Float a = std::clamp(along + (r.next_float() - 0.5f) * 10, 1.0f, len - 1);
-    return tube_c0 + w * a + (p - axis) * (0.5f * r.next_float());
-  }));
+  if (opt.runs("watertight"))
+    wt.push_back(run_watertight("sliver_tube", make_sliver_tube(65536), 1000000, [](const Point3f& p, PCG32& r) {
+      Vector3f w = normalize(tube_c1 - tube_c0);
+      Float len = length(tube_c1 - tube_c0);
+      Float along = dot(p - tube_c0, w);
+      Point3f axis = tube_c0 + w * along;
+      Float a = std::clamp(along + (r.next_float() - 0.5f) * 10, 1.0f, len - 1);
+      return tube_c0 + w * a + (p - axis) * (0.5f * r.next_float());
+    }));
 
 #ifdef PRISM_BENCH_HAS_GLTF
-  if (fs::exists(opt.gltf)) {
+  if (!opt.runs("metalroughspheres")) {
+  } else if (fs::exists(opt.gltf)) {
     TriangleMesh m;
     if (load_gltf_flat(opt.gltf, &m)) {
       // Rays recorded from prism's path tracer rendering the same model.
@@ -1081,7 +1101,7 @@ int main(int argc, char** argv) {
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
   fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
-  if (FILE* w = std::fopen(inst_out.string().c_str(), "w")) {
+  if (FILE* w = g_instance_rows.empty() ? nullptr : std::fopen(inst_out.string().c_str(), "w")) {
     std::fprintf(w, "case,threads,meshaccel_mrays,identity_instance_mrays,rotated_instance_mrays\n");
     for (const auto& r : g_instance_rows)
       std::fprintf(w, "%s,1,%.3f,%.3f,%.3f\n", r.name.c_str(), r.direct, r.identity, r.rotated);
@@ -1089,7 +1109,7 @@ int main(int argc, char** argv) {
     std::printf("wrote %s\n", inst_out.string().c_str());
   }
   fs::path wt_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "watertight.csv";
-  if (FILE* w = std::fopen(wt_out.string().c_str(), "w")) {
+  if (FILE* w = wt.empty() ? nullptr : std::fopen(wt_out.string().c_str(), "w")) {
     std::fprintf(w, "mesh,rays,prism_misses,embree_misses\n");
     for (const auto& r : wt) std::fprintf(w, "%s,%zu,%zu,%zu\n", r.mesh.c_str(), r.rays, r.prism_misses, r.embree_misses);
     std::fclose(w);

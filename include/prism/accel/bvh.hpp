@@ -58,6 +58,10 @@
 #include <emmintrin.h>
 #define PRISM_BVH_SSE 1
 #endif
+// With AVX2 and FMA, box tests take the directed-FMA path (see WideRayPrecomp).
+#if defined(PRISM_BVH_AVX) && defined(__AVX2__) && defined(__FMA__)
+#define PRISM_BVH_FMA_SLABS 1
+#endif
 
 namespace prism {
 
@@ -243,11 +247,12 @@ static_assert(sizeof(BVHFloatWideNode) == 32 * wide_width);
 // plane is >= its float max (plane(q) is non-decreasing in q, rounding being
 // monotonic; plane(0) = origin = the node's min and plane(255) >= the node's
 // max by the choice of scale). So the box traversal tests contains the child's
-// box. (3) On that float box the slab test is exactly intersect_node's, robust
-// in the sense of Ize 2013 (far distance widened by 1 + 2 gamma(3)): no box
-// the ray really enters is culled, and the entry distance it reports is at
-// most the exact box's, so sorting and the culling of deferred children after
-// a hit stay conservative. An axis that cannot be quantized (non-finite or
+// box. (3) On that float box the slab test is slab_lanes', robust in the
+// sense of Ize 2013 (exact path: far distance widened by 1 + 2 gamma(3);
+// directed-FMA path: see WideRayPrecomp): no box the ray really enters is
+// culled, and the entry distance it reports is at most the exact box's
+// (within the rounding that the culling of deferred children allows for),
+// so sorting and that culling stay conservative. An axis that cannot be quantized (non-finite or
 // inverted child bounds, or an extent beyond 255 * 2^119) gets origin NaN:
 // its planes are NaN, which the slab test ignores (every comparison with NaN
 // keeps the running value), so that axis culls nothing. Unused lanes are not
@@ -334,12 +339,16 @@ inline Bounds3f dequantized_box(const BVHQuantWideNode& n, int l) {
   return b;
 }
 // The same for a float node: lanes from k on get the empty box (+inf, -inf).
+// A NaN bound (which the builder's unions never produce) is stored as an
+// unbounded one, -inf or +inf: the exact slab test ignores NaN planes, the
+// directed-FMA one needs them not to be NaN, and both then agree.
 inline void set_boxes(BVHFloatWideNode& n, const Bounds3f* box, int k) {
   constexpr int W = wide_width;
   for (int l = 0; l < W; ++l)
     for (int a = 0; a < 3; ++a) {
-      n.b[2 * W * a + l] = l < k ? box[l].min[a] : infinity;
-      n.b[2 * W * a + W + l] = l < k ? box[l].max[a] : -infinity;
+      Float lo = l < k ? box[l].min[a] : infinity, hi = l < k ? box[l].max[a] : -infinity;
+      n.b[2 * W * a + l] = std::isnan(lo) ? -infinity : lo;
+      n.b[2 * W * a + W + l] = std::isnan(hi) ? infinity : hi;
     }
 }
 
@@ -352,15 +361,45 @@ using BVHWideNode = BVHFloatWideNode;
 // Per-ray data for the lane-parallel box tests: the offsets in BVHWideNode::b
 // of the near and far slab planes per axis, chosen by the direction's sign as
 // in intersect_node.
+//
+// With AVX2 and FMA (PRISM_BVH_FMA_SLABS) a ray normally takes a shorter
+// path: the distance to a plane b is one FMA, b * inv - c, and the entry and
+// exit distances are combined with integer max and min (for floats that are
+// not NaN, the signed-integer order of their bits is their order as numbers,
+// with every negative value below +0). It stays conservative (Ize 2013's
+// concern) as follows. Let T = (b - o) / d be the exact distance, u = 2^-24,
+// and inv = fl(1 / d), so inv d is in [1 - u, 1 + u].
+// - c_near is fl(o inv) moved up by two ulps, so c_near >= o inv plus at
+//   least half an ulp; the FMA's exact value b inv - c_near is then at most
+//   (b - o) inv = T (inv d), and after its one rounding the near distance is
+//   at most T (1 + u)^2 for T >= 0 (half a subnormal ulp is covered by the
+//   slack of c_near) and at most 0 for T <= 0.
+// - c_far is fl(o inv) moved down by two ulps: the far distance is at least
+//   T (1 - u)^2 for T >= 0, and negative only when T is.
+// So the computed entry is at most E (1 + u)^2 and the computed exit at least
+// X (1 - u)^2, E and X the exact entry and exit; the test compares the entry
+// with the exit raised by five ulps (five added to its bits: at least a
+// factor 1 + 5u > (1 + u)^2 / (1 - u)^2), and a box that the exact ray meets
+// before t_max is entered. For rays with a zero (or nearly zero) direction
+// component, an origin so far out that o inv nears overflow (|inv| or |c|
+// beyond 2^100), or NaNs, `fast` is false and the exact form of
+// intersect_node is used instead.
 struct WideRayPrecomp {
 #if defined(PRISM_BVH_AVX_NODES)
   __m256 o[3], inv_d[3];
+#if defined(PRISM_BVH_FMA_SLABS)
+  __m256 c_near[3], c_far[3];
+#endif
 #elif defined(PRISM_BVH_SSE)
   __m128 o[3], inv_d[3];
+#if defined(PRISM_BVH_FMA_SLABS)
+  __m128 c_near[3], c_far[3];
+#endif
 #else
   Float o[3], inv_d[3];
 #endif
   int near_off[3], far_off[3];
+  bool fast = false;  // the directed-FMA path (PRISM_BVH_FMA_SLABS only)
   explicit WideRayPrecomp(const RayBoxPrecomp& r) {
     for (int a = 0; a < 3; ++a) {
 #if defined(PRISM_BVH_AVX_NODES)
@@ -376,54 +415,166 @@ struct WideRayPrecomp {
       near_off[a] = 2 * wide_width * a + wide_width * r.sign[a];
       far_off[a] = 2 * wide_width * a + wide_width * (1 - r.sign[a]);
     }
+#if defined(PRISM_BVH_FMA_SLABS)
+    // The three axes at once, in the lanes of one register.
+    const __m128 inv = _mm_setr_ps(r.inv_d[0], r.inv_d[1], r.inv_d[2], 1);
+    const __m128 org = _mm_setr_ps(r.o[0], r.o[1], r.o[2], 0);
+    // The next float above x (x finite; -0 is taken as +0 first): the
+    // magnitude is in the low bits.
+    auto up = [](__m128 x) {
+      __m128i b = _mm_castps_si128(_mm_add_ps(x, _mm_setzero_ps()));
+      __m128i step = _mm_or_si128(_mm_srai_epi32(b, 31), _mm_set1_epi32(1));  // -1 if negative, else +1
+      return _mm_castsi128_ps(_mm_add_epi32(b, step));
+    };
+    const __m128 neg = _mm_set1_ps(-0.0f);
+    const __m128 p = _mm_mul_ps(org, inv);
+    const __m128 cn = up(up(p));
+    const __m128 cf = _mm_xor_ps(up(up(_mm_xor_ps(p, neg))), neg);
+    // All finite and in range: |inv| in [2^-100, 2^100), |c| < 2^100.
+    const __m128 lim = _mm_set1_ps(0x1p100f);
+    auto mag = [&](__m128 x) { return _mm_andnot_ps(neg, x); };
+    __m128 ok = _mm_and_ps(_mm_cmplt_ps(mag(inv), lim), _mm_cmpge_ps(mag(inv), _mm_set1_ps(0x1p-100f)));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmplt_ps(mag(cn), lim), _mm_cmplt_ps(mag(cf), lim)));
+    fast = (_mm_movemask_ps(ok) & 7) == 7;
+    alignas(16) Float v[2][4];
+    _mm_store_ps(v[0], cn);
+    _mm_store_ps(v[1], cf);
+    for (int a = 0; a < 3; ++a) {
+#if defined(PRISM_BVH_AVX_NODES)
+      c_near[a] = _mm256_set1_ps(v[0][a]);
+      c_far[a] = _mm256_set1_ps(v[1][a]);
+#else
+      c_near[a] = _mm_set1_ps(v[0][a]);
+      c_far[a] = _mm_set1_ps(v[1][a]);
+#endif
+    }
+#endif
   }
 };
 
-// intersect_node for all lanes of a wide node: returns the mask of lanes
-// entered before t_max and writes their entry distances to t_entry. The
-// operations and their order (including which operand wins a comparison with
-// a NaN) are intersect_node's, so every lane's result is bit for bit the same:
-// max(a, b) below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane.
-inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
-  constexpr Float widen = 1 + 2 * gamma(3);
+// The slab test of a wide node's lanes, given their near and far planes per
+// axis: returns the mask of lanes entered before t_cull = t_max * (1 + 2
+// gamma(3)) and writes their entry distances to t_entry.
+//
+// On the exact path, the operations and their order (including which operand
+// wins a comparison with a NaN) are intersect_node's, so every lane's mask bit
+// and entry distance are bit for bit intersect_node's with t_max: max(a, b)
+// below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane, and
+// min(A, t_max) * w = min(A * w, t_max * w) because rounding is monotonic.
+// On the directed-FMA path (WideRayPrecomp::fast) the entry distance is a
+// lower bound of the exact one and the mask a superset of the exact test's;
+// t_cull also keeps its widening there, which covers the rounding of the
+// triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_AVX_NODES)
+inline int slab_lanes(const __m256* pn, const __m256* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+  constexpr Float widen = 1 + 2 * gamma(3);
+#if defined(PRISM_BVH_FMA_SLABS)
+  if (r.fast) {
+    __m256i tn[3], tf[3];
+    for (int a = 0; a < 3; ++a) {
+      tn[a] = _mm256_castps_si256(_mm256_fmsub_ps(pn[a], r.inv_d[a], r.c_near[a]));
+      tf[a] = _mm256_castps_si256(_mm256_fmsub_ps(pf[a], r.inv_d[a], r.c_far[a]));
+    }
+    // No NaN can arise (b finite or infinite, inv and c finite and nonzero).
+    __m256i t0 = _mm256_max_epi32(_mm256_max_epi32(tn[0], tn[1]), _mm256_max_epi32(tn[2], _mm256_setzero_si256()));
+    __m256i t1 = _mm256_min_epi32(_mm256_min_epi32(tf[0], tf[1]),
+                                  _mm256_min_epi32(tf[2], _mm256_castps_si256(_mm256_set1_ps(t_cull))));
+    t1 = _mm256_add_epi32(t1, _mm256_set1_epi32(5));  // five ulps up (see WideRayPrecomp)
+    _mm256_store_ps(t_entry, _mm256_castsi256_ps(t0));
+    // t0 >= +0, so t0 <= t1 as numbers exactly when it is as integers. A
+    // negative t1 (-0 included) culls, rightly: the exact exit is then before
+    // the origin; +inf + 5 ulps is a positive NaN pattern, above every t0.
+    return ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(t0, t1))) & 0xff;
+  }
+#endif
   __m256 t0 = _mm256_setzero_ps();
-  __m256 t1 = _mm256_set1_ps(t_max);
+  __m256 t1 = _mm256_set1_ps(infinity);
   for (int a = 0; a < 3; ++a) {
-    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b + r.near_off[a]), r.o[a]), r.inv_d[a]);
-    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b + r.far_off[a]), r.o[a]), r.inv_d[a]);
+    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(pn[a], r.o[a]), r.inv_d[a]);
+    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(pf[a], r.o[a]), r.inv_d[a]);
     t0 = _mm256_max_ps(tn, t0);
     t1 = _mm256_min_ps(tf, t1);
   }
+  t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(widen)), _mm256_set1_ps(t_cull));
   _mm256_store_ps(t_entry, t0);
-  return _mm256_movemask_ps(_mm256_cmp_ps(t0, _mm256_mul_ps(t1, _mm256_set1_ps(widen)), _CMP_LE_OQ));
+  return _mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+}
+#elif defined(PRISM_BVH_SSE)
+inline int slab_lanes(const __m128* pn, const __m128* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+  constexpr Float widen = 1 + 2 * gamma(3);
+#if defined(PRISM_BVH_FMA_SLABS)
+  if (r.fast) {
+    __m128i tn[3], tf[3];
+    for (int a = 0; a < 3; ++a) {
+      tn[a] = _mm_castps_si128(_mm_fmsub_ps(pn[a], r.inv_d[a], r.c_near[a]));
+      tf[a] = _mm_castps_si128(_mm_fmsub_ps(pf[a], r.inv_d[a], r.c_far[a]));
+    }
+    __m128i t0 = _mm_max_epi32(_mm_max_epi32(tn[0], tn[1]), _mm_max_epi32(tn[2], _mm_setzero_si128()));
+    __m128i t1 = _mm_min_epi32(_mm_min_epi32(tf[0], tf[1]), _mm_min_epi32(tf[2], _mm_castps_si128(_mm_set1_ps(t_cull))));
+    t1 = _mm_add_epi32(t1, _mm_set1_epi32(5));
+    _mm_store_ps(t_entry, _mm_castsi128_ps(t0));
+    return ~_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(t0, t1))) & 0xf;
+  }
+#endif
+  __m128 t0 = _mm_setzero_ps();
+  __m128 t1 = _mm_set1_ps(infinity);
+  for (int a = 0; a < 3; ++a) {
+    __m128 tn = _mm_mul_ps(_mm_sub_ps(pn[a], r.o[a]), r.inv_d[a]);
+    __m128 tf = _mm_mul_ps(_mm_sub_ps(pf[a], r.o[a]), r.inv_d[a]);
+    t0 = _mm_max_ps(tn, t0);
+    t1 = _mm_min_ps(tf, t1);
+  }
+  t1 = _mm_min_ps(_mm_mul_ps(t1, _mm_set1_ps(widen)), _mm_set1_ps(t_cull));
+  _mm_store_ps(t_entry, t0);
+  return _mm_movemask_ps(_mm_cmple_ps(t0, t1));
+}
+#else
+// One lane from its planes (the portable build: the exact path only).
+inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+  constexpr Float widen = 1 + 2 * gamma(3);
+  Float t0 = 0, t1 = infinity;
+  for (int a = 0; a < 3; ++a) {
+    Float tn = (pn[a] - r.o[a]) * r.inv_d[a];
+    Float tf = (pf[a] - r.o[a]) * r.inv_d[a];
+    t0 = tn > t0 ? tn : t0;
+    t1 = tf < t1 ? tf : t1;
+  }
+  t1 = t1 * widen;
+  t1 = t1 < t_cull ? t1 : t_cull;
+  *t_entry = t0;
+  return t0 <= t1;
+}
+#endif
+
+// The slab test of every lane of a wide node (see slab_lanes).
+inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+#if defined(PRISM_BVH_AVX_NODES)
+  __m256 pn[3], pf[3];
+  for (int a = 0; a < 3; ++a) {
+    pn[a] = _mm256_load_ps(n.b + r.near_off[a]);
+    pf[a] = _mm256_load_ps(n.b + r.far_off[a]);
+  }
+  return slab_lanes(pn, pf, r, t_cull, t_entry);
 #elif defined(PRISM_BVH_SSE)
   int mask = 0;
   for (int h = 0; h < wide_width; h += 4) {
-    __m128 t0 = _mm_setzero_ps();
-    __m128 t1 = _mm_set1_ps(t_max);
+    __m128 pn[3], pf[3];
     for (int a = 0; a < 3; ++a) {
-      __m128 tn = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b + r.near_off[a] + h), r.o[a]), r.inv_d[a]);
-      __m128 tf = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b + r.far_off[a] + h), r.o[a]), r.inv_d[a]);
-      t0 = _mm_max_ps(tn, t0);
-      t1 = _mm_min_ps(tf, t1);
+      pn[a] = _mm_load_ps(n.b + r.near_off[a] + h);
+      pf[a] = _mm_load_ps(n.b + r.far_off[a] + h);
     }
-    _mm_store_ps(t_entry + h, t0);
-    mask |= _mm_movemask_ps(_mm_cmple_ps(t0, _mm_mul_ps(t1, _mm_set1_ps(widen)))) << h;
+    mask |= slab_lanes(pn, pf, r, t_cull, t_entry + h) << h;
   }
   return mask;
 #else
   int mask = 0;
   for (int l = 0; l < wide_width; ++l) {
-    Float t0 = 0, t1 = t_max;
+    Float pn[3], pf[3];
     for (int a = 0; a < 3; ++a) {
-      Float tn = (n.b[r.near_off[a] + l] - r.o[a]) * r.inv_d[a];
-      Float tf = (n.b[r.far_off[a] + l] - r.o[a]) * r.inv_d[a];
-      t0 = tn > t0 ? tn : t0;
-      t1 = tf < t1 ? tf : t1;
+      pn[a] = n.b[r.near_off[a] + l];
+      pf[a] = n.b[r.far_off[a] + l];
     }
-    t_entry[l] = t0;
-    if (t0 <= t1 * widen) mask |= 1 << l;
+    if (slab_lane(pn, pf, r, t_cull, t_entry + l)) mask |= 1 << l;
   }
   return mask;
 #endif
@@ -431,9 +582,8 @@ inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Fl
 
 // The same for a quantized node: each lane's planes are dequantized (exactly
 // as dequantize() computes them) and then tested as above, so every lane's
-// result is intersect_node's on the box dequantized_box() gives.
-inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_max, Float* t_entry) {
-  constexpr Float widen = 1 + 2 * gamma(3);
+// result is the float node's on the box dequantized_box() gives.
+inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
 #if defined(PRISM_BVH_AVX_NODES)
   // Eight bytes from q + off as eight floats.
   auto load_q = [&](int off) {
@@ -445,25 +595,25 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
     return _mm256_cvtepi32_ps(_mm256_insertf128_si256(_mm256_castsi128_si256(lo), hi, 1));
 #endif
   };
-  __m256 t0 = _mm256_setzero_ps();
-  __m256 t1 = _mm256_set1_ps(t_max);
+  __m256 pn[3], pf[3];
   for (int a = 0; a < 3; ++a) {
+    if (std::isnan(n.origin[a])) {  // an unquantized axis: unbounded (NaN planes, ignored, in the exact test)
+      bool lo_near = r.near_off[a] % (2 * wide_width) == 0;
+      pn[a] = _mm256_set1_ps(lo_near ? -infinity : infinity);
+      pf[a] = _mm256_set1_ps(lo_near ? infinity : -infinity);
+      continue;
+    }
     __m256 org = _mm256_broadcast_ss(n.origin + a);
     __m256 scale = _mm256_set1_ps(quant_scale(n.exp[a]));
 #if defined(__FMA__)
-    __m256 pn = _mm256_fmadd_ps(load_q(r.near_off[a]), scale, org);
-    __m256 pf = _mm256_fmadd_ps(load_q(r.far_off[a]), scale, org);
+    pn[a] = _mm256_fmadd_ps(load_q(r.near_off[a]), scale, org);
+    pf[a] = _mm256_fmadd_ps(load_q(r.far_off[a]), scale, org);
 #else
-    __m256 pn = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.near_off[a]), scale));
-    __m256 pf = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.far_off[a]), scale));
+    pn[a] = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.near_off[a]), scale));
+    pf[a] = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.far_off[a]), scale));
 #endif
-    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(pn, r.o[a]), r.inv_d[a]);
-    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(pf, r.o[a]), r.inv_d[a]);
-    t0 = _mm256_max_ps(tn, t0);
-    t1 = _mm256_min_ps(tf, t1);
   }
-  _mm256_store_ps(t_entry, t0);
-  return _mm256_movemask_ps(_mm256_cmp_ps(t0, _mm256_mul_ps(t1, _mm256_set1_ps(widen)), _CMP_LE_OQ)) & n.lanes;
+  return slab_lanes(pn, pf, r, t_cull, t_entry) & n.lanes;
 #elif defined(PRISM_BVH_SSE)
   // Four bytes from q + off as four floats (SSE2 unpacking).
   auto load_q = [&](int off) {
@@ -475,34 +625,31 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
   };
   int mask = 0;
   for (int h = 0; h < wide_width; h += 4) {
-    __m128 t0 = _mm_setzero_ps();
-    __m128 t1 = _mm_set1_ps(t_max);
+    __m128 pn[3], pf[3];
     for (int a = 0; a < 3; ++a) {
+      if (std::isnan(n.origin[a])) {  // an unquantized axis: unbounded (see the AVX path)
+        bool lo_near = r.near_off[a] % (2 * wide_width) == 0;
+        pn[a] = _mm_set1_ps(lo_near ? -infinity : infinity);
+        pf[a] = _mm_set1_ps(lo_near ? infinity : -infinity);
+        continue;
+      }
       __m128 org = _mm_set1_ps(n.origin[a]);
       __m128 scale = _mm_set1_ps(quant_scale(n.exp[a]));
-      __m128 pn = _mm_add_ps(org, _mm_mul_ps(load_q(r.near_off[a] + h), scale));
-      __m128 pf = _mm_add_ps(org, _mm_mul_ps(load_q(r.far_off[a] + h), scale));
-      __m128 tn = _mm_mul_ps(_mm_sub_ps(pn, r.o[a]), r.inv_d[a]);
-      __m128 tf = _mm_mul_ps(_mm_sub_ps(pf, r.o[a]), r.inv_d[a]);
-      t0 = _mm_max_ps(tn, t0);
-      t1 = _mm_min_ps(tf, t1);
+      pn[a] = _mm_add_ps(org, _mm_mul_ps(load_q(r.near_off[a] + h), scale));
+      pf[a] = _mm_add_ps(org, _mm_mul_ps(load_q(r.far_off[a] + h), scale));
     }
-    _mm_store_ps(t_entry + h, t0);
-    mask |= _mm_movemask_ps(_mm_cmple_ps(t0, _mm_mul_ps(t1, _mm_set1_ps(widen)))) << h;
+    mask |= slab_lanes(pn, pf, r, t_cull, t_entry + h) << h;
   }
   return mask & n.lanes;
 #else
   int mask = 0;
   for (int l = 0; l < wide_width; ++l) {
-    Float t0 = 0, t1 = t_max;
+    Float pn[3], pf[3];
     for (int a = 0; a < 3; ++a) {
-      Float tn = (dequantize(n.origin[a], n.exp[a], n.q[r.near_off[a] + l]) - r.o[a]) * r.inv_d[a];
-      Float tf = (dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + l]) - r.o[a]) * r.inv_d[a];
-      t0 = tn > t0 ? tn : t0;
-      t1 = tf < t1 ? tf : t1;
+      pn[a] = dequantize(n.origin[a], n.exp[a], n.q[r.near_off[a] + l]);
+      pf[a] = dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + l]);
     }
-    t_entry[l] = t0;
-    if (t0 <= t1 * widen) mask |= 1 << l;
+    if (slab_lane(pn, pf, r, t_cull, t_entry + l)) mask |= 1 << l;
   }
   return mask & n.lanes;
 #endif
@@ -709,7 +856,7 @@ class BVH {
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_max, t_entry));
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
       if (mask != 0) {
         // Visit the nearest child next and defer the others, farthest deepest;
         // equal entry distances keep lane order.
@@ -752,7 +899,7 @@ class BVH {
         }
       }
       // Pop, skipping entries that a closer hit has since made unreachable
-      // (exactly intersect_node's test with the lowered t_max).
+      // (slab_lanes' test with the lowered t_max).
       for (;;) {
         if (sp == 0) return hit;
         const Entry& e = stack[--sp];
@@ -791,10 +938,11 @@ class BVH {
     uint32_t stack[wide_stack_size];
     int sp = 0;
     uint32_t idx = 0;
+    const Float t_cull = t_max * (1 + 2 * gamma(3));
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_max, t_entry));
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
       // Leaves first (an early exit is cheap), then defer the inner children,
       // whose nodes start loading now.
       while (mask != 0) {
