@@ -383,7 +383,9 @@ using BVHWideNode = BVHFloatWideNode;
 // before t_max is entered. For rays with a zero (or nearly zero) direction
 // component, an origin so far out that o inv nears overflow (|inv| or |c|
 // beyond 2^100), or NaNs, `fast` is false and the exact form of
-// intersect_node is used instead.
+// intersect_node is used instead. The argument assumes the IEEE default
+// mode (round to nearest, no flush-to-zero or denormals-are-zero: the slack
+// of c is subnormal near zero) and t_max >= +0.
 struct WideRayPrecomp {
 #if defined(PRISM_BVH_AVX_NODES)
   __m256 o[3], inv_d[3];
@@ -461,8 +463,12 @@ struct WideRayPrecomp {
 // and entry distance are bit for bit intersect_node's with t_max: max(a, b)
 // below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane, and
 // min(A, t_max) * w = min(A * w, t_max * w) because rounding is monotonic.
-// On the directed-FMA path (WideRayPrecomp::fast) the entry distance is a
-// lower bound of the exact one and the mask a superset of the exact test's;
+// The exact path's widening is relative, so it adds nothing to distances in
+// the subnormal range: a box whose exact entry and exit both lie below about
+// 1e-38 can be culled there (a flaw of intersect_node too; only coordinates of
+// that magnitude near the origin give such distances).
+// On the directed-FMA path (WideRayPrecomp::fast) the entry distance is at
+// most the exact one times (1 + u)^2 and no box the exact ray meets is culled;
 // t_cull also keeps its widening there, which covers the rounding of the
 // triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_AVX_NODES)
@@ -482,8 +488,10 @@ inline int slab_lanes(const __m256* pn, const __m256* pf, const WideRayPrecomp& 
     t1 = _mm256_add_epi32(t1, _mm256_set1_epi32(5));  // five ulps up (see WideRayPrecomp)
     _mm256_store_ps(t_entry, _mm256_castsi256_ps(t0));
     // t0 >= +0, so t0 <= t1 as numbers exactly when it is as integers. A
-    // negative t1 (-0 included) culls, rightly: the exact exit is then before
-    // the origin; +inf + 5 ulps is a positive NaN pattern, above every t0.
+    // negative t1 culls, rightly: a far distance is negative (never -0) only
+    // when the exact exit is, and t_cull only for a t_max below +0 (t_max = -0
+    // culls a box the exact test would enter at t = 0, where no hit counts);
+    // +inf + 5 ulps is a positive NaN pattern, above every t0.
     return ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(t0, t1))) & 0xff;
   }
 #endif
