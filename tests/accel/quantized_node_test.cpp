@@ -194,7 +194,7 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
       Float t_max = rng.next_float() < 0.5f ? infinity : dist * 2;
       detail::WideRayPrecomp r{RayBoxPrecomp(o, d)};
       alignas(32) Float tf[W], tq[W];
-      const Float t_cull = t_max * (1 + 2 * gamma(3));
+      const Float t_cull = detail::widen_exit(t_max);
       int mf = detail::intersect_wide(fn, r, t_cull, tf);
       int mq = detail::intersect_wide(qn, r, t_cull, tq);
       ++rays;

@@ -5,7 +5,8 @@
 // rays take the directed-FMA path (WideRayPrecomp::fast), elsewhere (and for
 // rays with a zero direction component everywhere) the exact form.
 //
-// The reference decides in binary128 (__float128, 113 significant bits),
+// The reference decides in binary128 (__float128, 113 significant bits,
+// exponents down to 2^-16382, so float subnormals too are exact in it),
 // where every quantity it forms is exact: a difference b - o of two floats
 // whose exponents differ by at most 60 needs at most 85 bits, and its product
 // with a float at most 109. Slab distances are compared as fractions, by
@@ -22,7 +23,7 @@
 
 #include "support/random.hpp"
 
-#if defined(__SIZEOF_FLOAT128__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__SIZEOF_FLOAT128__)  // GCC and Clang on x86-64
 
 using namespace prism;
 using test::uniform;
@@ -132,7 +133,7 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     const Bounds3f& target = box[rng.next_u32() % uint32_t(k)];
     Point3f p = boundary_point(rng, target);
     Point3f o{uniform(rng, -4 * s, 4 * s), uniform(rng, -4 * s, 4 * s), uniform(rng, -4 * s, 4 * s)};
-    uint32_t kind = rng.next_u32() % 8;
+    uint32_t kind = rng.next_u32() % 9;
     if (kind == 0) {  // grazing: the origin in a plane of the target, moving along it
       int a = int(rng.next_u32() % 3);
       o[a] = rng.next_float() < 0.5f ? target.min[a] : target.max[a];
@@ -143,15 +144,38 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     // an edge or corner enters and leaves at the same exact t.
     if (kind == 3) o = Point3f(0, 0, 0);
     Vector3f d = p - o;
+    if (kind == 3) {  // scaled by a power of two (exactly) to |d| in [1, 2): normal even for subnormal p
+      Float m = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+      if (m > 0) {
+        int e = -std::ilogb(m);
+        d = Vector3f(std::ldexp(d.x, e), std::ldexp(d.y, e), std::ldexp(d.z, e));
+      }
+    }
     if (kind == 1) d[int(rng.next_u32() % 3)] = 0;  // a zero component: the exact path
     if (kind == 2) d = d * uniform(rng, 1e-3f, 1e3f);
-    if (kind >= 4 && length(d) > 0) d = normalize(d);
-    if (!(length_squared(d) > 0)) continue;
-    // t_max around the target's distance, or unbounded.
-    Float t_hit = kind >= 4 ? length(p - o) : 1;
+    if (kind == 8) d = d * (0x1p100f / std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)}));  // |d| 2^100
+    // Unit length for kinds 4-7, t_max then around the target's distance (in
+    // double: at subnormal scales float squares would underflow).
+    Float t_hit = 1;
+    if (kind >= 4 && kind < 8) {
+      double len = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+      if (!(len > 0)) continue;
+      t_hit = Float(len);
+      d = Vector3f(Float(d.x / len), Float(d.y / len), Float(d.z / len));
+    }
+    if (d.x == 0 && d.y == 0 && d.z == 0) continue;
+    // The box tests take 1 / d: each component must be 0 or have a normal
+    // reciprocal (an axis with |d| < 2^-128 is tested as if d were 0 there).
+    bool normal = true;
+    for (int a = 0; a < 3; ++a)
+      if (d[a] != 0 && !(std::abs(d[a]) >= 0x1p-126f && std::abs(d[a]) <= 0x1p126f)) normal = false;
+    if (!normal) continue;
+    // t_max around the target's distance, or unbounded, or zero (only boxes
+    // around the origin count).
     Float t_max = rng.next_float() < 0.4f ? infinity : t_hit * uniform(rng, 0.8f, 1.25f);
+    if (rng.next_u32() % 16 == 0) t_max = 0;
     detail::WideRayPrecomp r{RayBoxPrecomp(o, d)};
-    const Float t_cull = t_max * (1 + 2 * gamma(3));
+    const Float t_cull = detail::widen_exit(t_max);
     alignas(32) Float t_entry[W];
     int mask = detail::intersect_wide(node, r, t_cull, t_entry);
     double o_over_d = 0;
@@ -166,17 +190,20 @@ void check_node(PCG32& rng, Float s, Tally& t) {
         ++t.lanes_hit;
         if (!entered) {
           t.fail(t.culled, "culled: " + describe(o, d, t_max, box[l]));
-        } else if (!(Q(t_entry[l]) * e.entry.den <= e.entry.num * Q(1 + 2 * gamma(3)))) {
+        } else if (!(Q(t_entry[l]) * e.entry.den <=
+                     e.entry.num * Q(detail::box_exit_widen) + Q(detail::box_exit_slack) * e.entry.den)) {
           // The entry reported may be early, never later than rounding allows
-          // (deferred children are culled against t_max * (1 + 2 gamma(3))).
+          // (deferred children are culled against widen_exit(t_max), at
+          // least t_max (1 + 2 gamma(5)) + 2^-147).
           t.fail(t.late, "late entry: " + describe(o, d, t_max, box[l]));
         }
       } else if (e.exit_bounded) {
-        // Clearly missed: by more than 1e-4 of the distances and 1e-5 of the
+        // Clearly missed: by more than 1e-4 of the distances, 1e-5 of the
         // largest |o_a / d_a| (the directed-FMA path's slack is a few ulps of
-        // o inv, absolute, besides its relative part).
+        // o inv, absolute, besides its relative part) and 1e-43 (the
+        // subnormal slack of widen_exit and of five ulps added).
         double en = to_double(e.entry), ex = to_double(e.exit);
-        if (ex < en - 1e-4 * std::max(std::abs(en), std::abs(ex)) - 1e-5 * o_over_d) {
+        if (ex < en - 1e-4 * std::max(std::abs(en), std::abs(ex)) - 1e-5 * o_over_d - 1e-43) {
           ++t.lanes_missed_clearly;
           if (entered) t.fail(t.loose, "entered a clear miss: " + describe(o, d, t_max, box[l]));
         }
@@ -189,13 +216,14 @@ void check_node(PCG32& rng, Float s, Tally& t) {
 }  // namespace
 
 TEST_CASE("the wide box test enters every box the exact ray meets", "[accel][bvh][slab]") {
-  // Scales from 1e-30 to 1e30: coordinates, boxes and origins of one scale
-  // per node (so the reference stays exact), rays aimed at faces, edges and
-  // corners (some exactly through them, from the coordinate origin), grazing
-  // along faces, with zero direction components, and with t_max just short of
+  // Scales from 1e-43 (subnormal coordinates and distances) to 1e30:
+  // coordinates, boxes and origins of one scale per node (so the reference
+  // stays exact), rays aimed at faces, edges and corners (some exactly through
+  // them, from the coordinate origin), grazing along faces, with zero
+  // direction components or |d| = 2^100, and with t_max zero, just short of
   // or beyond the target.
   PCG32 rng(41, 0x51ab);
-  const Float scales[] = {1, 1e-30f, 1e30f, 3e-6f, 7e5f, 1e12f};
+  const Float scales[] = {1, 1e-30f, 1e30f, 3e-6f, 7e5f, 1e12f, 1e-39f, 1e-43f, 2e-38f};
   Tally t;
   for (Float s : scales)
     for (int it = 0; it < 1500; ++it) check_node(rng, s, t);
@@ -215,6 +243,66 @@ TEST_CASE("the wide box test enters every box the exact ray meets", "[accel][bvh
 #else
   CHECK(t.fast_rays == 0);
 #endif
+}
+
+TEST_CASE("the wide box test enters boxes met at subnormal distances", "[accel][bvh][slab]") {
+  // Rays from the coordinate origin with small integer directions d, at a box
+  // that the exact ray touches at one corner (or edge) at t = m 2^-150, m odd:
+  // entry and exit are the same exact distance, halfway between two subnormal
+  // floats, and rounding each slab distance to the subnormal grid can invert
+  // them (an error that is absolute there, not relative: a widening by a
+  // factor alone culls such boxes).
+  PCG32 rng(43, 0x5ab);
+  int rays = 0, culled = 0;
+  std::string first;
+  for (int it = 0; it < 4000; ++it) {
+    Vector3f d;
+    Point3f corner;
+    const uint32_t m = 2 * (rng.next_u32() % 500) + 1;
+    for (int a = 0; a < 3; ++a) {
+      // d_a = 2 j: the corner m j 2^-149 is a float (a subnormal multiple of 2^-149).
+      int j = int(rng.next_u32() % 40) - (a == 2 ? 10 : 20);
+      d[a] = Float(2 * j);
+      corner[a] = std::ldexp(Float(int(m) * j), -149);
+    }
+    if (d.x == 0 && d.y == 0 && d.z == 0) continue;
+    // The box lies beyond the corner along the axes the ray enters by and
+    // before it along those it leaves by; an axis with d = 0 spans 0.
+    Bounds3f b;
+    int enter_axis = int(rng.next_u32() % 3);
+    for (int a = 0; a < 3; ++a) {
+      Float w = std::ldexp(Float(1 + rng.next_u32() % 200), -149);
+      bool beyond = (a == enter_axis) == (d[a] > 0);
+      if (d[a] == 0) {
+        b.min[a] = -w;
+        b.max[a] = w;
+      } else if (beyond) {
+        b.min[a] = corner[a];
+        b.max[a] = corner[a] + w;
+      } else {
+        b.min[a] = corner[a] - w;
+        b.max[a] = corner[a];
+      }
+    }
+    Exact e = exact_slab(Point3f(0, 0, 0), d, infinity, b);
+    if (!e.hit) continue;
+    Bounds3f box[W];
+    for (int l = 0; l < W; ++l) box[l] = b;
+    detail::BVHFloatWideNode node;
+    detail::set_boxes(node, box, 1);
+    detail::WideRayPrecomp r{RayBoxPrecomp(Point3f(0, 0, 0), d)};
+    for (Float t_max : {infinity, std::ldexp(Float(m + 1), -150)}) {
+      alignas(32) Float t_entry[W];
+      Exact et = exact_slab(Point3f(0, 0, 0), d, t_max, b);
+      if (!et.hit) continue;
+      ++rays;
+      if (!(detail::intersect_wide(node, r, detail::widen_exit(t_max), t_entry) & 1) && culled++ == 0)
+        first = describe(Point3f(0, 0, 0), d, t_max, b);
+    }
+  }
+  INFO(rays << " rays touching a box at a subnormal distance; culled " << culled << "; first: " << first);
+  CHECK(rays > 2000);
+  CHECK(culled == 0);
 }
 
 #endif

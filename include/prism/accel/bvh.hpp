@@ -6,8 +6,8 @@
 // The BVH knows only primitive bounds. Traversal takes a callback that
 // intersects primitive i (in the BVH's leaf order) and shrinks t_max on a hit;
 // the mesh and instance layers supply it. Ray–box tests are robust in the sense
-// of Ize 2013 ("Robust BVH Ray Traversal"): the far distance is enlarged by
-// 1 + 2 gamma(3), so rounding never culls a box the ray really enters.
+// of Ize 2013 ("Robust BVH Ray Traversal"): the far distance is enlarged
+// (detail::widen_exit), so rounding never culls a box the ray really enters.
 //
 // The build is deterministic: the same input gives the same tree at any
 // thread count (subtrees are built in parallel, then laid out in a fixed order).
@@ -119,6 +119,34 @@ struct RayBoxPrecomp {
   }
 };
 
+namespace detail {
+
+// How the box tests enlarge an exit distance t before comparing it with an
+// entry distance: widen_exit(t) = (t + 2^-147) (1 + 2 gamma(5)), rounded
+// twice, as Ize 2013's 1 + 2 gamma(3) but also covering distances in the
+// subnormal range and the rounding of the widening itself.
+// Why it suffices. With u = 2^-24, a computed slab distance
+// fl(fl(b - o) fl(1 / d)) is within three roundings of the exact (b - o) / d:
+// for a result x >= 0 a rounding gives at most x (1 + u) + 2^-150 and at
+// least x (1 - u) - 2^-150, the absolute term for results that underflow (a
+// product's error is not relative there; a difference that underflows is
+// exact). So the computed entry t0 (the largest near distance and 0) is at
+// most E (1 + u)^3 + 2^-150, and if the exact ray meets the box (0 <= E <= X)
+// the computed exit t1 (the least far distance and t_max) is at least
+// X (1 - u)^3 - 2^-150, so t1 >= -0 and
+//   t0 <= (t1 + 2^-150) r + 2^-150,  r = (1 + u)^3 / (1 - u)^3 < 1 + 6u + 19u^2.
+// The constant 1 + 2 gamma(5) rounds to w = 1 + 10u, and
+// widen_exit(t1) >= (t1 + 2^-147) (1 - u)^2 w - 2^-150, where
+// (1 - u)^2 w > 1 + 8u - 19u^2 > r and 2^-147 (1 - u)^2 w exceeds
+// 2^-150 (r + 2): so widen_exit(t1) >= t0. (1 / d must be a normal float:
+// |d| <= 2^126.) An addition followed by a product cannot be contracted to
+// an FMA, so every path computes it bit for bit alike.
+inline constexpr Float box_exit_slack = 0x1p-147f;
+inline constexpr Float box_exit_widen = 1 + 2 * gamma(5);
+inline Float widen_exit(Float t) { return (t + box_exit_slack) * box_exit_widen; }
+
+}  // namespace detail
+
 // Entry distance of the ray into the node's box, or +inf when it misses or the
 // box lies beyond t_max.
 inline Float intersect_node(const BVHNode& n, const RayBoxPrecomp& r, Float t_max) {
@@ -137,8 +165,7 @@ inline Float intersect_node(const BVHNode& n, const RayBoxPrecomp& r, Float t_ma
   Float t1 = tx1 < t_max ? tx1 : t_max;
   t1 = ty1 < t1 ? ty1 : t1;
   t1 = tz1 < t1 ? tz1 : t1;
-  constexpr Float widen = 1 + 2 * gamma(3);
-  return t0 <= t1 * widen ? t0 : infinity;
+  return t0 <= detail::widen_exit(t1) ? t0 : infinity;
 }
 
 namespace detail {
@@ -248,7 +275,7 @@ static_assert(sizeof(BVHFloatWideNode) == 32 * wide_width);
 // monotonic; plane(0) = origin = the node's min and plane(255) >= the node's
 // max by the choice of scale). So the box traversal tests contains the child's
 // box. (3) On that float box the slab test is slab_lanes', robust in the
-// sense of Ize 2013 (exact path: far distance widened by 1 + 2 gamma(3);
+// sense of Ize 2013 (exact path: far distance widened by widen_exit;
 // directed-FMA path: see WideRayPrecomp): no box the ray really enters is
 // culled, and the entry distance it reports is at most the exact box's
 // (within the rounding that the culling of deferred children allows for),
@@ -358,6 +385,57 @@ using BVHWideNode = BVHQuantWideNode;
 using BVHWideNode = BVHFloatWideNode;
 #endif
 
+#if defined(PRISM_BVH_SSE)
+// The lanes of one box-test register: eight with AVX nodes, four otherwise.
+namespace bx {
+#if defined(PRISM_BVH_AVX_NODES)
+using V = __m256;
+inline V set1(Float x) { return _mm256_set1_ps(x); }
+inline V zero() { return _mm256_setzero_ps(); }
+inline V sub(V a, V b) { return _mm256_sub_ps(a, b); }
+inline V add(V a, V b) { return _mm256_add_ps(a, b); }
+inline V mul(V a, V b) { return _mm256_mul_ps(a, b); }
+inline V vmax(V a, V b) { return _mm256_max_ps(a, b); }
+inline V vmin(V a, V b) { return _mm256_min_ps(a, b); }
+inline int le_mask(V a, V b) { return _mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
+inline void store(Float* p, V a) { _mm256_store_ps(p, a); }
+#if defined(PRISM_BVH_FMA_SLABS)
+using I = __m256i;
+inline I fmsub_bits(V a, V b, V c) { return _mm256_castps_si256(_mm256_fmsub_ps(a, b, c)); }
+inline I bits(V a) { return _mm256_castps_si256(a); }
+inline I izero() { return _mm256_setzero_si256(); }
+inline I imax(I a, I b) { return _mm256_max_epi32(a, b); }
+inline I imin(I a, I b) { return _mm256_min_epi32(a, b); }
+inline I iadd(I a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
+inline int igt_mask(I a, I b) { return _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(a, b))); }
+inline void store_bits(Float* p, I a) { _mm256_store_ps(p, _mm256_castsi256_ps(a)); }
+#endif
+#else
+using V = __m128;
+inline V set1(Float x) { return _mm_set1_ps(x); }
+inline V zero() { return _mm_setzero_ps(); }
+inline V sub(V a, V b) { return _mm_sub_ps(a, b); }
+inline V add(V a, V b) { return _mm_add_ps(a, b); }
+inline V mul(V a, V b) { return _mm_mul_ps(a, b); }
+inline V vmax(V a, V b) { return _mm_max_ps(a, b); }
+inline V vmin(V a, V b) { return _mm_min_ps(a, b); }
+inline int le_mask(V a, V b) { return _mm_movemask_ps(_mm_cmple_ps(a, b)); }
+inline void store(Float* p, V a) { _mm_store_ps(p, a); }
+#if defined(PRISM_BVH_FMA_SLABS)
+using I = __m128i;
+inline I fmsub_bits(V a, V b, V c) { return _mm_castps_si128(_mm_fmsub_ps(a, b, c)); }
+inline I bits(V a) { return _mm_castps_si128(a); }
+inline I izero() { return _mm_setzero_si128(); }
+inline I imax(I a, I b) { return _mm_max_epi32(a, b); }
+inline I imin(I a, I b) { return _mm_min_epi32(a, b); }
+inline I iadd(I a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
+inline int igt_mask(I a, I b) { return _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(a, b))); }
+inline void store_bits(Float* p, I a) { _mm_store_ps(p, _mm_castsi128_ps(a)); }
+#endif
+#endif
+}  // namespace bx
+#endif
+
 // Per-ray data for the lane-parallel box tests: the offsets in BVHWideNode::b
 // of the near and far slab planes per axis, chosen by the direction's sign as
 // in intersect_node.
@@ -386,16 +464,12 @@ using BVHWideNode = BVHFloatWideNode;
 // intersect_node is used instead. The argument assumes the IEEE default
 // mode (round to nearest, no flush-to-zero or denormals-are-zero: the slack
 // of c is subnormal near zero) and t_max >= +0.
+
 struct WideRayPrecomp {
-#if defined(PRISM_BVH_AVX_NODES)
-  __m256 o[3], inv_d[3];
+#if defined(PRISM_BVH_SSE)
+  bx::V o[3], inv_d[3];
 #if defined(PRISM_BVH_FMA_SLABS)
-  __m256 c_near[3], c_far[3];
-#endif
-#elif defined(PRISM_BVH_SSE)
-  __m128 o[3], inv_d[3];
-#if defined(PRISM_BVH_FMA_SLABS)
-  __m128 c_near[3], c_far[3];
+  bx::V c_near[3], c_far[3];
 #endif
 #else
   Float o[3], inv_d[3];
@@ -404,12 +478,9 @@ struct WideRayPrecomp {
   bool fast = false;  // the directed-FMA path (PRISM_BVH_FMA_SLABS only)
   explicit WideRayPrecomp(const RayBoxPrecomp& r) {
     for (int a = 0; a < 3; ++a) {
-#if defined(PRISM_BVH_AVX_NODES)
-      o[a] = _mm256_set1_ps(r.o[a]);
-      inv_d[a] = _mm256_set1_ps(r.inv_d[a]);
-#elif defined(PRISM_BVH_SSE)
-      o[a] = _mm_set1_ps(r.o[a]);
-      inv_d[a] = _mm_set1_ps(r.inv_d[a]);
+#if defined(PRISM_BVH_SSE)
+      o[a] = bx::set1(r.o[a]);
+      inv_d[a] = bx::set1(r.inv_d[a]);
 #else
       o[a] = r.o[a];
       inv_d[a] = r.inv_d[a];
@@ -442,104 +513,66 @@ struct WideRayPrecomp {
     _mm_store_ps(v[0], cn);
     _mm_store_ps(v[1], cf);
     for (int a = 0; a < 3; ++a) {
-#if defined(PRISM_BVH_AVX_NODES)
-      c_near[a] = _mm256_set1_ps(v[0][a]);
-      c_far[a] = _mm256_set1_ps(v[1][a]);
-#else
-      c_near[a] = _mm_set1_ps(v[0][a]);
-      c_far[a] = _mm_set1_ps(v[1][a]);
-#endif
+      c_near[a] = bx::set1(v[0][a]);
+      c_far[a] = bx::set1(v[1][a]);
     }
 #endif
   }
 };
 
 // The slab test of a wide node's lanes, given their near and far planes per
-// axis: returns the mask of lanes entered before t_cull = t_max * (1 + 2
-// gamma(3)) and writes their entry distances to t_entry.
+// axis: returns the mask of lanes entered before t_cull = widen_exit(t_max)
+// and writes their entry distances to t_entry.
 //
 // On the exact path, the operations and their order (including which operand
 // wins a comparison with a NaN) are intersect_node's, so every lane's mask bit
 // and entry distance are bit for bit intersect_node's with t_max: max(a, b)
 // below is a > b ? a : b and min(a, b) is a < b ? a : b, lane by lane, and
-// min(A, t_max) * w = min(A * w, t_max * w) because rounding is monotonic.
-// The exact path's widening is relative, so it adds nothing to distances in
-// the subnormal range: a box whose exact entry and exit both lie below about
-// 1e-38 can be culled there (a flaw of intersect_node too; only coordinates of
-// that magnitude near the origin give such distances).
+// min(widen_exit(A), widen_exit(t_max)) = widen_exit(min(A, t_max)) because
+// rounding is monotonic.
 // On the directed-FMA path (WideRayPrecomp::fast) the entry distance is at
 // most the exact one times (1 + u)^2 and no box the exact ray meets is culled;
 // t_cull also keeps its widening there, which covers the rounding of the
 // triangle test's t (a hit computed before t_max is never culled).
-#if defined(PRISM_BVH_AVX_NODES)
-inline int slab_lanes(const __m256* pn, const __m256* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-  constexpr Float widen = 1 + 2 * gamma(3);
+#if defined(PRISM_BVH_SSE)
+inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+  using namespace bx;
 #if defined(PRISM_BVH_FMA_SLABS)
   if (r.fast) {
-    __m256i tn[3], tf[3];
+    I tn[3], tf[3];
     for (int a = 0; a < 3; ++a) {
-      tn[a] = _mm256_castps_si256(_mm256_fmsub_ps(pn[a], r.inv_d[a], r.c_near[a]));
-      tf[a] = _mm256_castps_si256(_mm256_fmsub_ps(pf[a], r.inv_d[a], r.c_far[a]));
+      tn[a] = fmsub_bits(pn[a], r.inv_d[a], r.c_near[a]);
+      tf[a] = fmsub_bits(pf[a], r.inv_d[a], r.c_far[a]);
     }
     // No NaN can arise (b finite or infinite, inv and c finite and nonzero).
-    __m256i t0 = _mm256_max_epi32(_mm256_max_epi32(tn[0], tn[1]), _mm256_max_epi32(tn[2], _mm256_setzero_si256()));
-    __m256i t1 = _mm256_min_epi32(_mm256_min_epi32(tf[0], tf[1]),
-                                  _mm256_min_epi32(tf[2], _mm256_castps_si256(_mm256_set1_ps(t_cull))));
-    t1 = _mm256_add_epi32(t1, _mm256_set1_epi32(5));  // five ulps up (see WideRayPrecomp)
-    _mm256_store_ps(t_entry, _mm256_castsi256_ps(t0));
+    I t0 = imax(imax(tn[0], tn[1]), imax(tn[2], izero()));
+    I t1 = imin(imin(tf[0], tf[1]), imin(tf[2], bits(set1(t_cull))));
+    t1 = iadd(t1, 5);  // five ulps up (see WideRayPrecomp)
+    store_bits(t_entry, t0);
     // t0 >= +0, so t0 <= t1 as numbers exactly when it is as integers. A
     // negative t1 culls, rightly: a far distance is negative (never -0) only
-    // when the exact exit is, and t_cull only for a t_max below +0 (t_max = -0
-    // culls a box the exact test would enter at t = 0, where no hit counts);
-    // +inf + 5 ulps is a positive NaN pattern, above every t0.
-    return ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(t0, t1))) & 0xff;
+    // when the exact exit is, and t_cull only for a t_max below -2^-147 (a
+    // t_max of +-0 gives a small positive t_cull); +inf + 5 ulps is a
+    // positive NaN pattern, above every t0.
+    return ~igt_mask(t0, t1) & ((1 << (sizeof(V) / sizeof(Float))) - 1);
   }
 #endif
-  __m256 t0 = _mm256_setzero_ps();
-  __m256 t1 = _mm256_set1_ps(infinity);
+  V t0 = zero();
+  V t1 = set1(infinity);
   for (int a = 0; a < 3; ++a) {
-    __m256 tn = _mm256_mul_ps(_mm256_sub_ps(pn[a], r.o[a]), r.inv_d[a]);
-    __m256 tf = _mm256_mul_ps(_mm256_sub_ps(pf[a], r.o[a]), r.inv_d[a]);
-    t0 = _mm256_max_ps(tn, t0);
-    t1 = _mm256_min_ps(tf, t1);
+    V tn = mul(sub(pn[a], r.o[a]), r.inv_d[a]);
+    V tf = mul(sub(pf[a], r.o[a]), r.inv_d[a]);
+    t0 = vmax(tn, t0);
+    t1 = vmin(tf, t1);
   }
-  t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(widen)), _mm256_set1_ps(t_cull));
-  _mm256_store_ps(t_entry, t0);
-  return _mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
-}
-#elif defined(PRISM_BVH_SSE)
-inline int slab_lanes(const __m128* pn, const __m128* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-  constexpr Float widen = 1 + 2 * gamma(3);
-#if defined(PRISM_BVH_FMA_SLABS)
-  if (r.fast) {
-    __m128i tn[3], tf[3];
-    for (int a = 0; a < 3; ++a) {
-      tn[a] = _mm_castps_si128(_mm_fmsub_ps(pn[a], r.inv_d[a], r.c_near[a]));
-      tf[a] = _mm_castps_si128(_mm_fmsub_ps(pf[a], r.inv_d[a], r.c_far[a]));
-    }
-    __m128i t0 = _mm_max_epi32(_mm_max_epi32(tn[0], tn[1]), _mm_max_epi32(tn[2], _mm_setzero_si128()));
-    __m128i t1 = _mm_min_epi32(_mm_min_epi32(tf[0], tf[1]), _mm_min_epi32(tf[2], _mm_castps_si128(_mm_set1_ps(t_cull))));
-    t1 = _mm_add_epi32(t1, _mm_set1_epi32(5));
-    _mm_store_ps(t_entry, _mm_castsi128_ps(t0));
-    return ~_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(t0, t1))) & 0xf;
-  }
-#endif
-  __m128 t0 = _mm_setzero_ps();
-  __m128 t1 = _mm_set1_ps(infinity);
-  for (int a = 0; a < 3; ++a) {
-    __m128 tn = _mm_mul_ps(_mm_sub_ps(pn[a], r.o[a]), r.inv_d[a]);
-    __m128 tf = _mm_mul_ps(_mm_sub_ps(pf[a], r.o[a]), r.inv_d[a]);
-    t0 = _mm_max_ps(tn, t0);
-    t1 = _mm_min_ps(tf, t1);
-  }
-  t1 = _mm_min_ps(_mm_mul_ps(t1, _mm_set1_ps(widen)), _mm_set1_ps(t_cull));
-  _mm_store_ps(t_entry, t0);
-  return _mm_movemask_ps(_mm_cmple_ps(t0, t1));
+  // widen_exit, lane by lane, then min with t_cull.
+  t1 = vmin(mul(add(t1, set1(box_exit_slack)), set1(box_exit_widen)), set1(t_cull));
+  store(t_entry, t0);
+  return le_mask(t0, t1);
 }
 #else
 // One lane from its planes (the portable build: the exact path only).
 inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-  constexpr Float widen = 1 + 2 * gamma(3);
   Float t0 = 0, t1 = infinity;
   for (int a = 0; a < 3; ++a) {
     Float tn = (pn[a] - r.o[a]) * r.inv_d[a];
@@ -547,7 +580,7 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
     t0 = tn > t0 ? tn : t0;
     t1 = tf < t1 ? tf : t1;
   }
-  t1 = t1 * widen;
+  t1 = widen_exit(t1);
   t1 = t1 < t_cull ? t1 : t_cull;
   *t_entry = t0;
   return t0 <= t1;
@@ -851,7 +884,6 @@ class BVH {
     if (m_wide.empty()) return false;
     // No separate test of the root box: a ray that misses it misses every
     // child box inside it too (the slab distances are monotonic in the planes).
-    constexpr Float widen = 1 + 2 * gamma(3);
     struct Entry {
       uint32_t child, count;
       Float t;
@@ -860,7 +892,7 @@ class BVH {
     int sp = 0;
     uint32_t idx = 0;
     bool hit = false;
-    Float t_cull = t_max * widen;  // deferred entries beyond it are skipped
+    Float t_cull = detail::widen_exit(t_max);  // deferred entries beyond it are skipped
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
@@ -903,7 +935,7 @@ class BVH {
         }
         if (leaf(node.child[l], node.count[l], t_max)) {
           hit = true;
-          t_cull = t_max * widen;
+          t_cull = detail::widen_exit(t_max);
         }
       }
       // Pop, skipping entries that a closer hit has since made unreachable
@@ -918,7 +950,7 @@ class BVH {
         }
         if (leaf(e.child, e.count, t_max)) {
           hit = true;
-          t_cull = t_max * widen;
+          t_cull = detail::widen_exit(t_max);
         }
       }
     }
@@ -946,7 +978,7 @@ class BVH {
     uint32_t stack[wide_stack_size];
     int sp = 0;
     uint32_t idx = 0;
-    const Float t_cull = t_max * (1 + 2 * gamma(3));
+    const Float t_cull = detail::widen_exit(t_max);
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
