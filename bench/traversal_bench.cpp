@@ -50,6 +50,7 @@
 #include <thread>
 #include <vector>
 
+#include "procedural_mesh.hpp"
 #include "prism/accel/scene_accel.hpp"
 #include "prism/math/frame.hpp"
 #include "prism/sampling/pcg32.hpp"
@@ -60,6 +61,7 @@
 #endif
 
 using namespace prism;
+using prism_bench::make_displaced_sphere;
 namespace fs = std::filesystem;
 
 namespace {
@@ -96,66 +98,7 @@ void parallel_for(size_t n, int threads, const std::function<void(size_t, size_t
 }
 
 // ------------------------------------------------------- procedural mesh
-
-// Deterministic 3D value noise (hashed lattice, smoothstep interpolation).
-Float lattice(int x, int y, int z) {
-  uint64_t h = hash_values(uint64_t(uint32_t(x)), uint64_t(uint32_t(y)), uint64_t(uint32_t(z)));
-  return Float(h >> 40) * 0x1p-24f * 2 - 1;
-}
-Float value_noise(Float x, Float y, Float z) {
-  int ix = int(std::floor(x)), iy = int(std::floor(y)), iz = int(std::floor(z));
-  Float fx = x - Float(ix), fy = y - Float(iy), fz = z - Float(iz);
-  auto s = [](Float t) { return t * t * (3 - 2 * t); };
-  Float ux = s(fx), uy = s(fy), uz = s(fz);
-  Float c[2][2][2];
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b)
-      for (int e = 0; e < 2; ++e) c[a][b][e] = lattice(ix + a, iy + b, iz + e);
-  auto l = [](Float t, Float p, Float q) { return p + t * (q - p); };
-  return l(uz, l(uy, l(ux, c[0][0][0], c[1][0][0]), l(ux, c[0][1][0], c[1][1][0])),
-           l(uy, l(ux, c[0][0][1], c[1][0][1]), l(ux, c[0][1][1], c[1][1][1])));
-}
-Float fbm(Vector3f p) {
-  Float sum = 0, amp = 0.5f;
-  for (int o = 0; o < 6; ++o) {
-    sum += amp * value_noise(p.x, p.y, p.z);
-    p = p * 2.03f;
-    amp *= 0.5f;
-  }
-  return sum;
-}
-
-// A cube-sphere: each cube face an n x n grid projected onto the unit sphere,
-// then displaced radially by fractal noise. 12 n^2 triangles. Vertices on the
-// cube's edges are computed from the same cube point on both faces, so the
-// mesh is closed.
-TriangleMesh make_displaced_sphere(int n) {
-  TriangleMesh m;
-  auto idx = [n](int i, int j) { return uint32_t(i * (n + 1) + j); };
-  for (int face = 0; face < 6; ++face) {
-    int axis = face / 2;
-    Float sign = face % 2 ? -1.f : 1.f;
-    uint32_t base = uint32_t(m.positions.size());
-    for (int i = 0; i <= n; ++i)
-      for (int j = 0; j <= n; ++j) {
-        Float u = Float(2 * i - n) / Float(n), v = Float(2 * j - n) / Float(n);
-        Float c[3];
-        c[axis] = sign;
-        c[(axis + 1) % 3] = sign * u;
-        c[(axis + 2) % 3] = v;
-        Vector3f d = normalize(Vector3f{c[0], c[1], c[2]});
-        Float r = 1 + 0.35f * fbm(d * 3.0f);
-        m.positions.push_back(Point3f(d * r));
-      }
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        uint32_t a = base + idx(i, j), b = base + idx(i + 1, j), c = base + idx(i + 1, j + 1),
-                 d = base + idx(i, j + 1);
-        m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
-      }
-  }
-  return m;
-}
+// (bench/procedural_mesh.hpp: make_displaced_sphere)
 
 // A scene of long thin triangles, where triangle pre-splitting
 // (BVHBuildOptions::split_budget) should pay: a 40 x 40 ground square turned

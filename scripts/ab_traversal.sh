@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# scripts/ab_traversal.sh — prism's ray queries, one version against another,
+# in one process (bench/ab_traversal.cpp says how and why).
+#
+# Usage: scripts/ab_traversal.sh A [B] [--res N] [--reps N]
+#   A, B: git revisions (anything `git archive` takes), "worktree" for the
+#   include/ of the working tree, or a directory holding an include/ (a copy
+#   with an experiment); B defaults to worktree. The same revision
+#   twice (an A/A run) measures the harness's own spread.
+# Example: scripts/ab_traversal.sh HEAD            (the uncommitted change)
+#          scripts/ab_traversal.sh HEAD~3 HEAD --reps 40
+# Needs a C++20 compiler (CXX, default c++); compiled with -O3 -march=native.
+# Exit status 1 when the two versions' hits differ.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if [ $# -lt 1 ] || [[ "$1" == -* ]]; then
+  sed -n 2,13p "$0" | sed 's/^# \{0,1\}//' >&2
+  exit 2
+fi
+a=$1
+shift
+b=worktree
+if [ $# -gt 0 ] && [[ "$1" != -* ]]; then
+  b=$1
+  shift
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+export_include() {  # revision, directory
+  mkdir -p "$2"
+  if [ "$1" = worktree ]; then
+    cp -r include "$2/"
+  elif [ -d "$1/include" ]; then
+    cp -r "$1/include" "$2/"
+  else
+    git archive "$1" include | tar -x -C "$2"
+  fi
+}
+export_include "$a" "$tmp/a"
+export_include "$b" "$tmp/b"
+cxx=${CXX:-c++}
+flags=(-std=gnu++20 -O3 -DNDEBUG -march=native -Ibench)
+echo "ab_traversal: A = $a, B = $b; compiling..."
+"$cxx" "${flags[@]}" -Dprism=prism_ab_a -DAB_SIDE=a -I"$tmp/a/include" -c bench/ab_traversal.cpp -o "$tmp/a.o" &
+pa=$!
+"$cxx" "${flags[@]}" -Dprism=prism_ab_b -DAB_SIDE=b -I"$tmp/b/include" -c bench/ab_traversal.cpp -o "$tmp/b.o" &
+pb=$!
+"$cxx" "${flags[@]}" -DAB_MAIN -c bench/ab_traversal.cpp -o "$tmp/main.o"
+wait $pa
+wait $pb
+"$cxx" "$tmp/main.o" "$tmp/a.o" "$tmp/b.o" -o "$tmp/ab_traversal" -pthread
+"$tmp/ab_traversal" "$@"
