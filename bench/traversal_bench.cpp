@@ -6,7 +6,9 @@
 // MetalRoughSpheresNoTextures flattened to world space (skipped if absent).
 // Rays: primary (pinhole camera framing the object), incoherent (cosine
 // hemisphere about the geometric normal at the primary hits) and shadow (from
-// the primary hits to random points on a sphere around the scene, finite t_max).
+// the primary hits to random points on a sphere around the scene, finite t_max);
+// for the procedural mesh also the incoherent rays shuffled ("scattered": no
+// two consecutive rays share nodes, as in a path tracer's later bounces).
 // Fourth ray set, glTF case only: rays recorded from prism's own path tracer
 // while it renders the model (prism's glTF loader, RGB, PathIntegrator with
 // its defaults, the framing camera, lit by the shared HDR environment;
@@ -823,6 +825,16 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
   std::vector<RaySet> sets = {{"primary_" + case_name, &primary, true},
                               {"incoherent_" + case_name, &incoherent, true},
                               {"shadow_" + case_name, &shadow, false}};
+  // The procedural mesh also gets its incoherent rays in a shuffled order
+  // ("scattered"): consecutive rays then share no nodes, as a path tracer's
+  // later bounces do not, so each query pays its own cache misses.
+  std::vector<BenchRay> scattered;
+  if (case_name == "procedural") {
+    scattered = incoherent;
+    PCG32 rng(11, 0xab);
+    for (size_t i = scattered.size(); i > 1; --i) std::swap(scattered[i - 1], scattered[rng.next_u32() % i]);
+    sets.push_back({"scattered_" + case_name, &scattered, true});
+  }
   for (const ExtraRaySet& x : external)
     if (!x.rays->empty()) sets.push_back({x.kind + "_" + case_name, x.rays, x.closest});
 
