@@ -145,7 +145,7 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     if (kind == 3) o = Point3f(0, 0, 0);
     Vector3f d = p - o;
     if (kind == 3) {  // scaled by a power of two (exactly) to |d| in [1, 2): normal even for subnormal p
-      Float m = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+      Float m = max_component(abs(d));
       if (m > 0) {
         int e = -std::ilogb(m);
         d = Vector3f(std::ldexp(d.x, e), std::ldexp(d.y, e), std::ldexp(d.z, e));
@@ -153,7 +153,7 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     }
     if (kind == 1) d[int(rng.next_u32() % 3)] = 0;  // a zero component: the exact path
     if (kind == 2) d = d * uniform(rng, 1e-3f, 1e3f);
-    if (kind == 8) d = d * (0x1p100f / std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)}));  // |d| 2^100
+    if (kind == 8) d = d * (0x1p100f / max_component(abs(d)));  // |d| 2^100
     // Unit length for kinds 4-7, t_max then around the target's distance (in
     // double: at subnormal scales float squares would underflow).
     Float t_hit = 1;
