@@ -21,7 +21,8 @@
 // shadow ray (to a random point on a sphere of radius 2, finite t_max), in
 // raster order as traversal_bench makes them; and the incoherent rays once
 // more in a shuffled order ("scattered": consecutive rays share no nodes, as
-// in a path tracer's later bounces), closest hit.
+// in a path tracer's later bounces), closest hit. Both versions trace the
+// rays that version A made (ab_export / ab_import).
 #include <chrono>
 #include <cstddef>
 
@@ -106,6 +107,22 @@ void AB_FN(ab_setup)(int res) {
 
 size_t AB_FN(ab_count)(int kind) { return state->rays[kind].o.size(); }
 
+// The rays as 7 floats each (origin, direction, t_max), so that B traces A's
+// rays bit for bit: each side's set-up code is compiled on its own, and may
+// contract a * b + c into an FMA differently, which would move the rays.
+std::vector<float> AB_FN(ab_export)(int kind) {
+  const Rays& r = state->rays[kind];
+  std::vector<float> v;
+  for (size_t i = 0; i < r.o.size(); ++i)
+    v.insert(v.end(), {r.o[i].x, r.o[i].y, r.o[i].z, r.d[i].x, r.d[i].y, r.d[i].z, r.t_max[i]});
+  return v;
+}
+void AB_FN(ab_import)(int kind, const std::vector<float>& v) {
+  Rays& r = state->rays[kind];
+  r = Rays{};
+  for (size_t i = 0; i + 7 <= v.size(); i += 7) r.add({v[i], v[i + 1], v[i + 2]}, {v[i + 3], v[i + 4], v[i + 5]}, v[i + 6]);
+}
+
 // Seconds to trace every ray of a kind; *check gets the hit count plus the
 // sum of the closest hits' t (the same for versions that agree).
 double AB_FN(ab_trace)(int kind, double* check) {
@@ -144,6 +161,8 @@ double AB_FN(ab_trace)(int kind, double* check) {
 void ab_setup_a(int res);
 void ab_setup_b(int res);
 size_t ab_count_a(int kind);
+std::vector<float> ab_export_a(int kind);
+void ab_import_b(int kind, const std::vector<float>& v);
 double ab_trace_a(int kind, double* check);
 double ab_trace_b(int kind, double* check);
 
@@ -166,6 +185,7 @@ int main(int argc, char** argv) {
   }
   ab_setup_a(res);
   ab_setup_b(res);
+  for (int kind = 0; kind < 4; ++kind) ab_import_b(kind, ab_export_a(kind));
   const char* names[4] = {"primary", "incoherent", "shadow", "scattered"};
   std::printf("%d reps, A then B alternating with B then A; speed-up = time A / time B per repetition\n", reps);
   int status = 0;

@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -107,7 +108,7 @@ Point3f boundary_point(PCG32& rng, const Bounds3f& b) {
 
 struct Tally {
   long rays = 0, fast_rays = 0, lanes_hit = 0, lanes_missed_clearly = 0;
-  long culled = 0, late = 0, loose = 0;
+  long culled = 0, late = 0, loose = 0, mismatched = 0;
   std::string first;
   void fail(long& counter, const std::string& what) {
     if (counter++ == 0 && first.empty()) first = what;
@@ -174,10 +175,21 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     // around the origin count).
     Float t_max = rng.next_float() < 0.4f ? infinity : t_hit * uniform(rng, 0.8f, 1.25f);
     if (rng.next_u32() % 16 == 0) t_max = 0;
-    detail::WideRayPrecomp r{RayBoxPrecomp(o, d)};
+    detail::WideRayPrecomp r(o, d);
     const Float t_cull = detail::widen_exit(t_max);
     alignas(32) Float t_entry[W];
     int mask = detail::intersect_wide(node, r, t_cull, t_entry);
+    // Built from RayBoxPrecomp (as SceneAccel did before), the same ray data:
+    // the same lanes entered at the same distances.
+    {
+      detail::WideRayPrecomp r2{RayBoxPrecomp(o, d)};
+      alignas(32) Float t_entry2[W];
+      int mask2 = detail::intersect_wide(node, r2, t_cull, t_entry2);
+      bool same = mask2 == mask && r2.fast == r.fast;
+      for (int l = 0; l < W; ++l)
+        if (mask >> l & 1 && std::bit_cast<uint32_t>(t_entry[l]) != std::bit_cast<uint32_t>(t_entry2[l])) same = false;
+      if (!same) t.fail(t.mismatched, "the two ray set-ups differ: " + describe(o, d, t_max, box[0]));
+    }
     double o_over_d = 0;
     for (int a = 0; a < 3; ++a)
       if (d[a] != 0) o_over_d = std::max(o_over_d, std::abs(double(o[a]) / double(d[a])));
@@ -229,10 +241,11 @@ TEST_CASE("the wide box test enters every box the exact ray meets", "[accel][bvh
     for (int it = 0; it < 1500; ++it) check_node(rng, s, t);
   INFO(t.rays << " rays (" << t.fast_rays << " on the directed-FMA path), " << t.lanes_hit << " lanes met exactly, "
                << t.lanes_missed_clearly << " clearly missed; culled " << t.culled << ", late " << t.late
-               << ", loose " << t.loose << "; first: " << t.first);
+               << ", loose " << t.loose << ", set-ups differing " << t.mismatched << "; first: " << t.first);
   CHECK(t.culled == 0);
   CHECK(t.late == 0);
   CHECK(t.loose == 0);
+  CHECK(t.mismatched == 0);
   CHECK(t.lanes_hit > t.rays / 4);
   CHECK(t.lanes_missed_clearly > t.rays / 4);
 #if defined(PRISM_BVH_FMA_SLABS)
@@ -290,7 +303,7 @@ TEST_CASE("the wide box test enters boxes met at subnormal distances", "[accel][
     for (int l = 0; l < W; ++l) box[l] = b;
     detail::BVHFloatWideNode node;
     detail::set_boxes(node, box, 1);
-    detail::WideRayPrecomp r{RayBoxPrecomp(Point3f(0, 0, 0), d)};
+    detail::WideRayPrecomp r(Point3f(0, 0, 0), d);
     for (Float t_max : {infinity, std::ldexp(Float(m + 1), -150)}) {
       alignas(32) Float t_entry[W];
       Exact et = exact_slab(Point3f(0, 0, 0), d, t_max, b);

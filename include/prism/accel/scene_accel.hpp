@@ -118,7 +118,7 @@ class MeshAccel {
   // Closest hit before *t_max; on a hit lowers *t_max and fills *hit and *tri
   // (the triangle's index in the mesh).
   bool intersect(const Point3f& o, const Vector3f& d, Float* t_max, TriangleHit* hit, uint32_t* tri) const {
-    return intersect(o, d, detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, hit, tri);
+    return intersect(o, d, detail::WideRayPrecomp(o, d), t_max, hit, tri);
   }
   // The same with the ray's box-test data already computed (SceneAccel traces
   // a world-space ray through its top level and identity instances with one).
@@ -133,7 +133,7 @@ class MeshAccel {
   }
   // Any hit before t_max, ignoring triangle `skip` (mesh index) if given.
   bool occluded(const Point3f& o, const Vector3f& d, Float t_max, uint32_t skip = UINT32_MAX) const {
-    return occluded(o, d, detail::WideRayPrecomp(RayBoxPrecomp(o, d)), t_max, skip);
+    return occluded(o, d, detail::WideRayPrecomp(o, d), t_max, skip);
   }
   bool occluded(const Point3f& o, const Vector3f& d, const detail::WideRayPrecomp& wr, Float t_max,
                 uint32_t skip = UINT32_MAX) const {
@@ -377,7 +377,7 @@ class SceneAccel {
   std::optional<Hit> intersect(const Ray& ray, Float t_max = infinity) const {
     const BVH& top = top_for(ray.time);
     if (top.empty()) return std::nullopt;
-    detail::WideRayPrecomp wr(RayBoxPrecomp(ray.o, ray.d));
+    detail::WideRayPrecomp wr(ray.o, ray.d);
     Hit best;
     auto visit = [&](uint32_t k, Float& tm) {
       uint32_t inst_id = top.prims()[k];
@@ -422,7 +422,7 @@ class SceneAccel {
                 uint32_t skip_primitive = UINT32_MAX) const {
     const BVH& top = top_for(ray.time);
     if (top.empty()) return false;
-    detail::WideRayPrecomp wr(RayBoxPrecomp(ray.o, ray.d));
+    detail::WideRayPrecomp wr(ray.o, ray.d);
     auto visit = [&](uint32_t k, Float tm) {
       uint32_t inst_id = top.prims()[k];
       const Instance& in = m_instances[inst_id];
