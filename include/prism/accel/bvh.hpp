@@ -757,6 +757,89 @@ inline void prefetch_links(const BVHWideNode* n) {
 #endif
 }
 
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+#define PRISM_BVH_SORT_AVX2 1
+// Eight int32 keys in ascending order: Batcher's odd-even merge sort, 19
+// comparators in 6 layers, each layer a permutation to the partner lane, a
+// min, a max and a blend keeping the max in the upper lane of each pair.
+inline __m256i sort8(__m256i x) {
+  auto layer = [](__m256i v, __m256i partner, auto hi_lanes) {
+    __m256i y = _mm256_permutevar8x32_epi32(v, partner);
+    return _mm256_blend_epi32(_mm256_min_epi32(v, y), _mm256_max_epi32(v, y), decltype(hi_lanes)::value);
+  };
+  using std::integral_constant;
+  x = layer(x, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5), integral_constant<int, 0xCC>{});
+  x = layer(x, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3), integral_constant<int, 0xF0>{});
+  x = layer(x, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6), integral_constant<int, 0xAA>{});
+  x = layer(x, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7), integral_constant<int, 0x30>{});
+  x = layer(x, _mm256_setr_epi32(0, 4, 2, 6, 1, 5, 3, 7), integral_constant<int, 0x50>{});
+  x = layer(x, _mm256_setr_epi32(0, 2, 1, 4, 3, 6, 5, 7), integral_constant<int, 0x54>{});
+  return x;
+}
+
+// Closest-hit ordering of a node's entered lanes (`mask`, two or more) without
+// branches: the lanes sorted by entry distance (ties, and distances within 8
+// ulps, by lane: the key is the distance's bits with the lane in the low
+// three), all but the nearest written farthest first to child/count/t (eight
+// entries are stored; those past the entered ones are scratch). Returns the
+// nearest lane. Entry distances are >= +0, so their bits order like them.
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
+                            uint32_t* count, Float* t) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m256i tv = _mm256_load_si256(reinterpret_cast<const __m256i*>(t_entry));
+  const __m256i entered = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), bit);
+  __m256i key = _mm256_or_si256(_mm256_andnot_si256(_mm256_set1_epi32(7), tv), lane);
+  key = _mm256_blendv_epi8(_mm256_set1_epi32(INT32_MAX), key, entered);
+  const __m256i by_distance = _mm256_and_si256(sort8(key), _mm256_set1_epi32(7));
+  // Slot j of the push holds the (n - 1 - j)-th nearest (n entered lanes).
+  const int n = std::popcount(mask);
+  const __m256i slot = _mm256_permutevar8x32_epi32(by_distance, _mm256_sub_epi32(_mm256_set1_epi32(n - 1), lane));
+  auto gather = [&](const void* p) {
+    return _mm256_permutevar8x32_epi32(_mm256_loadu_si256(static_cast<const __m256i*>(p)), slot);
+  };
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(child), gather(node.child));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), _mm256_permutevar8x32_epi32(tv, slot));
+  return _mm256_cvtsi256_si32(by_distance);
+}
+
+// The lanes of a node that hold inner nodes (bit l for lane l).
+inline unsigned inner_lanes(const BVHWideNode& node) {
+  __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(node.count));
+  return unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(c, _mm256_set1_epi32(-1)))));
+}
+#else
+// The same ordering without AVX2: (distance, lane) keys sorted by insertion
+// (distances are >= +0, so their bit patterns order like their values; ties
+// keep lane order), then written farthest first.
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
+                            uint32_t* count, Float* t) {
+  uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
+  int n = 0;
+  for (; mask != 0; mask &= mask - 1) {
+    int c = std::countr_zero(mask);
+    uint64_t kc = uint64_t(std::bit_cast<uint32_t>(t_entry[c])) << 32 | uint64_t(c);
+    int j = n++;
+    for (; j > 0 && kc < key[j - 1]; --j) key[j] = key[j - 1];
+    key[j] = kc;
+  }
+  for (int j = n - 1, s = 0; j > 0; --j, ++s) {
+    int c = int(key[j] & 0xff);
+    child[s] = node.child[c];
+    count[s] = node.count[c];
+    t[s] = t_entry[c];
+  }
+  return int(key[0] & 0xff);
+}
+
+inline unsigned inner_lanes(const BVHWideNode& node) {
+  unsigned m = 0;
+  for (int l = 0; l < wide_width; ++l) m |= unsigned(node.count[l] == BVHWideNode::interior) << l;
+  return m;
+}
+#endif
+
 }  // namespace detail
 
 class BVH {
@@ -925,11 +1008,11 @@ class BVH {
     if (m_wide.empty()) return false;
     // No separate test of the root box: a ray that misses it misses every
     // child box inside it too (the slab distances are monotonic in the planes).
-    struct Entry {
-      uint32_t child, count;
-      Float t;
-    };
-    Entry stack[wide_stack_size];
+    // The stack, a field per array (the AVX2 ordering stores eight entries at
+    // once: wide_width entries of slack).
+    constexpr int stack_slots = wide_stack_size + detail::wide_width;
+    alignas(32) uint32_t stack_child[stack_slots], stack_count[stack_slots];
+    alignas(32) Float stack_t[stack_slots];
     int sp = 0;
     uint32_t idx = 0;
     bool hit = false;
@@ -943,38 +1026,31 @@ class BVH {
       alignas(32) Float t_entry[detail::wide_width];
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
       if (mask != 0) {
-        // Visit the nearest child next and defer the others, farthest deepest;
-        // equal entry distances keep lane order. Deferred inner nodes start
-        // loading now (for rays whose nodes are not in cache).
+        // Visit the nearest child next and defer the others, farthest deepest.
+        // Deferred inner nodes start loading now (for rays whose nodes are not
+        // in cache).
         int l = std::countr_zero(mask);
-        mask &= mask - 1;
-        if (mask != 0) {
-          int l1 = std::countr_zero(mask);
-          mask &= mask - 1;
-          if (mask == 0) {
-            if (t_entry[l1] < t_entry[l]) std::swap(l, l1);
-            stack[sp++] = {node.child[l1], node.count[l1], t_entry[l1]};
+        if ((mask & (mask - 1)) != 0) {
+          unsigned rest = mask & (mask - 1);
+          int l1 = std::countr_zero(rest);
+          if ((rest & (rest - 1)) == 0) {
+            // Two: equal entry distances keep lane order.
+            // (Selected, not branched on: which is nearer is a coin toss
+            // for incoherent rays.)
+            bool swap = t_entry[l1] < t_entry[l];
+            int near = swap ? l1 : l;
+            l1 = swap ? l : l1;
+            l = near;
+            stack_child[sp] = node.child[l1];
+            stack_count[sp] = node.count[l1];
+            stack_t[sp++] = t_entry[l1];
             if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
           } else {
-            // Three or more: sort (distance, lane) keys; distances are >= +0,
-            // so their bit patterns order like their values.
-            uint64_t key[detail::wide_width];
-            int n = 0;
-            mask |= (1u << l) | (1u << l1);
-            while (mask != 0) {
-              int c = std::countr_zero(mask);
-              mask &= mask - 1;
-              uint64_t kc = uint64_t(std::bit_cast<uint32_t>(t_entry[c])) << 32 | uint64_t(c);
-              int j = n++;
-              for (; j > 0 && kc < key[j - 1]; --j) key[j] = key[j - 1];
-              key[j] = kc;
-            }
-            for (int j = n - 1; j > 0; --j) {
-              int c = int(key[j] & 0xff);
-              stack[sp++] = {node.child[c], node.count[c], t_entry[c]};
-              if (node.count[c] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[c]]);
-            }
-            l = int(key[0] & 0xff);
+            // Three or more.
+            l = detail::push_by_distance(node, mask, t_entry, stack_child + sp, stack_count + sp, stack_t + sp);
+            sp += std::popcount(mask) - 1;
+            for (unsigned inner = detail::inner_lanes(node) & mask & ~(1u << l); inner != 0; inner &= inner - 1)
+              detail::prefetch(&m_wide[node.child[std::countr_zero(inner)]]);
           }
         }
         if (node.count[l] == detail::BVHWideNode::interior) {
@@ -990,13 +1066,13 @@ class BVH {
       // (slab_lanes' test with the lowered t_max).
       for (;;) {
         if (sp == 0) return hit;
-        const Entry& e = stack[--sp];
-        if (!(e.t <= t_cull)) continue;
-        if (e.count == detail::BVHWideNode::interior) {
-          idx = e.child;
+        --sp;
+        if (!(stack_t[sp] <= t_cull)) continue;
+        if (stack_count[sp] == detail::BVHWideNode::interior) {
+          idx = stack_child[sp];
           break;
         }
-        if (leaf(e.child, e.count, t_max)) {
+        if (leaf(stack_child[sp], stack_count[sp], t_max)) {
           hit = true;
           t_cull = detail::widen_exit(t_max);
         }
