@@ -1099,7 +1099,7 @@ class BVH {
   template <class F>
   bool occluded_leaves(const detail::WideRayPrecomp& r, Float t_max, F&& leaf) const {
     if (m_wide.empty()) return false;
-    uint32_t stack[wide_stack_size];
+    alignas(32) uint32_t stack[wide_stack_size + detail::wide_width];  // (push_by_distance stores eight)
     int sp = 0;
     uint32_t idx = 0;
     const Float t_cull = detail::widen_exit(t_max);
@@ -1107,18 +1107,27 @@ class BVH {
       const detail::BVHWideNode& node = m_wide[idx];
       alignas(32) Float t_entry[detail::wide_width];
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
-      // Leaves first (an early exit is cheap), then defer the inner children,
-      // whose nodes start loading now.
-      while (mask != 0) {
-        int l = std::countr_zero(mask);
-        mask &= mask - 1;
-        uint32_t c = node.child[l], count = node.count[l];
-        if (count == detail::BVHWideNode::interior) {
-          stack[sp++] = c;
-          detail::prefetch(&m_wide[c]);
-        } else if (leaf(c, count, t_max)) {
-          return true;
+      // Leaves first (an early exit is cheap), then the inner children,
+      // nearest first: an occluder near the ray's origin, where shadow rays
+      // start, is then found before the far side of the scene is searched.
+      // Deferred inner children start loading now.
+      const unsigned inner = mask & detail::inner_lanes(node);
+      for (unsigned m = mask & ~inner; m != 0; m &= m - 1) {
+        int l = std::countr_zero(m);
+        if (leaf(node.child[l], node.count[l], t_max)) return true;
+      }
+      if (inner != 0) {
+        int l = std::countr_zero(inner);
+        if ((inner & (inner - 1)) != 0) {
+          alignas(32) uint32_t counts[2 * detail::wide_width];
+          alignas(32) Float ts[2 * detail::wide_width];
+          l = detail::push_by_distance(node, inner, t_entry, stack + sp, counts, ts);
+          sp += std::popcount(inner) - 1;
+          for (unsigned m = inner & ~(1u << l); m != 0; m &= m - 1)
+            detail::prefetch(&m_wide[node.child[std::countr_zero(m)]]);
         }
+        idx = node.child[l];
+        continue;
       }
       if (sp == 0) return false;
       idx = stack[--sp];
