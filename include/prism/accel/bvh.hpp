@@ -1032,11 +1032,11 @@ class BVH {
         int l = std::countr_zero(mask);
         if ((mask & (mask - 1)) != 0) {
           unsigned rest = mask & (mask - 1);
-          int l1 = std::countr_zero(rest);
           if ((rest & (rest - 1)) == 0) {
             // Two: equal entry distances keep lane order.
             // (Selected, not branched on: which is nearer is a coin toss
             // for incoherent rays.)
+            int l1 = std::countr_zero(rest);
             bool swap = t_entry[l1] < t_entry[l];
             int near = swap ? l1 : l;
             l1 = swap ? l : l1;
@@ -1049,8 +1049,7 @@ class BVH {
             // Three or more.
             l = detail::push_by_distance(node, mask, t_entry, stack_child + sp, stack_count + sp, stack_t + sp);
             sp += std::popcount(mask) - 1;
-            for (unsigned inner = detail::inner_lanes(node) & mask & ~(1u << l); inner != 0; inner &= inner - 1)
-              detail::prefetch(&m_wide[node.child[std::countr_zero(inner)]]);
+            prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
           }
         }
         if (node.count[l] == detail::BVHWideNode::interior) {
@@ -1123,8 +1122,7 @@ class BVH {
           alignas(32) Float ts[2 * detail::wide_width];
           l = detail::push_by_distance(node, inner, t_entry, stack + sp, counts, ts);
           sp += std::popcount(inner) - 1;
-          for (unsigned m = inner & ~(1u << l); m != 0; m &= m - 1)
-            detail::prefetch(&m_wide[node.child[std::countr_zero(m)]]);
+          prefetch_children(node, inner & ~(1u << l));
         }
         idx = node.child[l];
         continue;
@@ -1135,6 +1133,11 @@ class BVH {
   }
 
  private:
+  // Starts loading the wide nodes of `lanes` (inner children that traversal defers).
+  void prefetch_children(const detail::BVHWideNode& node, unsigned lanes) const {
+    for (; lanes != 0; lanes &= lanes - 1) detail::prefetch(&m_wide[node.child[std::countr_zero(lanes)]]);
+  }
+
   // A primitive during the build: its bounds and its input index, laid out
   // for two 16-byte loads.
   struct alignas(16) PrimRef {
