@@ -292,8 +292,9 @@ struct EmbreeScene {
   std::vector<float> verts;  // padded: Embree reads 16 bytes at the last vertex
   std::vector<uint32_t> indices;
 
-  EmbreeScene(const TriangleMesh& m, int threads) {
+  EmbreeScene(const TriangleMesh& m, int threads, const std::string& extra_config = "") {
     std::string cfg = "threads=" + std::to_string(threads);
+    if (!extra_config.empty()) cfg += "," + extra_config;
     device = rtcNewDevice(cfg.c_str());
     rtcSetDeviceErrorFunction(device, embree_error, nullptr);
     verts.resize(3 * m.positions.size() + 4);
@@ -669,6 +670,9 @@ struct Options {
   // watertight, metalroughspheres. All by default; A/B comparisons of a
   // change usually need only one.
   std::string cases = "procedural,slivers,watertight,metalroughspheres";
+  // Appended to Embree's device configuration (--embree-config), e.g.
+  // "isa=avx2" to hold Embree to the kernels prism has on this machine.
+  std::string embree_config;
   bool runs(const char* name) const {
     for (size_t p = 0; p <= cases.size();) {
       size_t q = cases.find(',', p);
@@ -754,7 +758,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
 
   // Build: median of reps, prism and Embree alternating.
   for (int th : opt.threads) {
-    auto em = std::make_unique<EmbreeScene>(mesh, th);
+    auto em = std::make_unique<EmbreeScene>(mesh, th, opt.embree_config);
     std::vector<double> tp, te;
     BVHBuildOptions bo;
     bo.threads = th;
@@ -969,6 +973,8 @@ int main(int argc, char** argv) {
       opt.split_budget = std::strtof(next().c_str(), nullptr);
     } else if (a == "--cases") {
       opt.cases = next();
+    } else if (a == "--embree-config") {
+      opt.embree_config = next();
     } else if (a == "--threads") {
       opt.threads.clear();
       std::string s = next();
@@ -983,7 +989,8 @@ int main(int argc, char** argv) {
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
                    "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n"
-                   "       [--cases procedural,slivers,watertight,metalroughspheres (default: all)]\n",
+                   "       [--cases procedural,slivers,watertight,metalroughspheres (default: all)]\n"
+                   "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
       return a == "--help" || a == "-h" ? 0 : 2;
     }

@@ -328,6 +328,8 @@ TEST_CASE("the wide box test enters boxes met at subnormal distances", "[accel][
 // child, count and distance. Keys compare a distance's bits with the lane in
 // the low three, so lanes whose distances differ only there may swap; the
 // check allows exactly that (the insertion sort's exact order passes too).
+// The any-hit form (push_by_distance<false>, children only) must push the
+// same children.
 TEST_CASE("closest-hit traversal orders entered lanes by distance", "[accel][bvh][slab]") {
   constexpr int W = detail::wide_width;
   PCG32 rng(91, 3);
@@ -374,6 +376,11 @@ TEST_CASE("closest-hit traversal orders entered lanes by distance", "[accel][bvh
     }
     if (n >= 2 && key(t[n - 2]) < key(t_entry[nearest])) ok = false;
     if (seen != mask) ok = false;
+    // The any-hit form (children only) pushes the same children in the same order.
+    alignas(32) uint32_t child_only[2 * W];
+    if (detail::push_by_distance<false>(node, mask, t_entry, child_only, nullptr, nullptr) != nearest ||
+        !std::equal(child, child + n - 1, child_only))
+      ok = false;
     if (!ok) ++wrong;
   }
   CHECK(wrong == 0);

@@ -783,6 +783,9 @@ inline __m256i sort8(__m256i x) {
 // three), all but the nearest written farthest first to child/count/t (eight
 // entries are stored; those past the entered ones are scratch). Returns the
 // nearest lane. Entry distances are >= +0, so their bits order like them.
+// Without `with_count_t` (any-hit, whose stack holds only inner children),
+// count and t are neither written nor needed.
+template <bool with_count_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
                             uint32_t* count, Float* t) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -799,8 +802,10 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float*
     return _mm256_permutevar8x32_epi32(_mm256_loadu_si256(static_cast<const __m256i*>(p)), slot);
   };
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(child), gather(node.child));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), _mm256_permutevar8x32_epi32(tv, slot));
+  if constexpr (with_count_t) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), _mm256_permutevar8x32_epi32(tv, slot));
+  }
   return _mm256_cvtsi256_si32(by_distance);
 }
 
@@ -813,6 +818,7 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
 // The same ordering without AVX2: (distance, lane) keys sorted by insertion
 // (distances are >= +0, so their bit patterns order like their values; ties
 // keep lane order), then written farthest first.
+template <bool with_count_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
                             uint32_t* count, Float* t) {
   uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
@@ -827,8 +833,10 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float*
   for (int j = n - 1, s = 0; j > 0; --j, ++s) {
     int c = int(key[j] & 0xff);
     child[s] = node.child[c];
-    count[s] = node.count[c];
-    t[s] = t_entry[c];
+    if constexpr (with_count_t) {
+      count[s] = node.count[c];
+      t[s] = t_entry[c];
+    }
   }
   return int(key[0] & 0xff);
 }
@@ -1118,9 +1126,7 @@ class BVH {
       if (inner != 0) {
         int l = std::countr_zero(inner);
         if ((inner & (inner - 1)) != 0) {
-          alignas(32) uint32_t counts[2 * detail::wide_width];
-          alignas(32) Float ts[2 * detail::wide_width];
-          l = detail::push_by_distance(node, inner, t_entry, stack + sp, counts, ts);
+          l = detail::push_by_distance<false>(node, inner, t_entry, stack + sp, nullptr, nullptr);
           sp += std::popcount(inner) - 1;
           prefetch_children(node, inner & ~(1u << l));
         }
