@@ -328,8 +328,8 @@ TEST_CASE("the wide box test enters boxes met at subnormal distances", "[accel][
 // child, count and distance. Keys compare a distance's bits with the lane in
 // the low three, so lanes whose distances differ only there may swap; the
 // check allows exactly that (the insertion sort's exact order passes too).
-// The any-hit form (push_by_distance<false>, children only) must push the
-// same children.
+// The any-hit form (push_by_distance<false>, without distances) must push
+// the same children and counts.
 TEST_CASE("closest-hit traversal orders entered lanes by distance", "[accel][bvh][slab]") {
   constexpr int W = detail::wide_width;
   PCG32 rng(91, 3);
@@ -376,10 +376,10 @@ TEST_CASE("closest-hit traversal orders entered lanes by distance", "[accel][bvh
     }
     if (n >= 2 && key(t[n - 2]) < key(t_entry[nearest])) ok = false;
     if (seen != mask) ok = false;
-    // The any-hit form (children only) pushes the same children in the same order.
-    alignas(32) uint32_t child_only[2 * W];
-    if (detail::push_by_distance<false>(node, mask, t_entry, child_only, nullptr, nullptr) != nearest ||
-        !std::equal(child, child + n - 1, child_only))
+    // The any-hit form (no distances) pushes the same children and counts in the same order.
+    alignas(32) uint32_t child2[2 * W], count2[2 * W];
+    if (detail::push_by_distance<false>(node, mask, t_entry, child2, count2, nullptr) != nearest ||
+        !std::equal(child, child + n - 1, child2) || !std::equal(count, count + n - 1, count2))
       ok = false;
     if (!ok) ++wrong;
   }
