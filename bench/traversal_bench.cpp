@@ -26,7 +26,10 @@
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
 //                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
-//                        [--split-budget F]
+//                        [--split-budget F] [--cases LIST] [--embree-config STR] [--procedural-n N]
+// --embree-config is appended to Embree's device configuration (isa=avx2 holds
+// it to its AVX2 kernels); --procedural-n sets the procedural mesh's size for
+// the traversal rows (12 N^2 triangles; small meshes keep the BVH in cache).
 // Second code-built case, "slivers" (make_sliver_scene): long thin triangles
 // where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget,
 // on by default for slivers only) pays.
@@ -1008,9 +1011,15 @@ int main(int argc, char** argv) {
 
   std::vector<WatertightRow> wt;
   if (opt.runs("procedural") || opt.runs("watertight")) {
-    TriangleMesh sphere = make_displaced_sphere(opt.procedural_n);
+    // The edge rays always go to the 1M-triangle mesh (watertight.csv's
+    // "procedural" row), whatever size --procedural-n gives the traversal rows.
+    constexpr int watertight_n = 289;
+    TriangleMesh sphere = make_displaced_sphere(opt.runs("procedural") ? opt.procedural_n : watertight_n);
     if (opt.runs("procedural")) run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
-    if (opt.runs("watertight")) wt.push_back(run_watertight("procedural", sphere, 1000000));
+    if (opt.runs("watertight")) {
+      if (opt.runs("procedural") && opt.procedural_n != watertight_n) sphere = make_displaced_sphere(watertight_n);
+      wt.push_back(run_watertight("procedural", sphere, 1000000));
+    }
   }
   if (opt.runs("slivers")) run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
   // Edge rays into the tube: towards a point at least 1 inside either end and
