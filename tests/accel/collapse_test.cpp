@@ -75,16 +75,7 @@ struct BruteForce {
   }
 };
 
-// The box traversal tests for lane l of a wide node.
-[[maybe_unused]] Bounds3f lane_box(const detail::BVHFloatWideNode& n, int l) {
-  Bounds3f b;
-  for (int a = 0; a < 3; ++a) {
-    b.min[a] = n.b[2 * W * a + l];
-    b.max[a] = n.b[2 * W * a + W + l];
-  }
-  return b;
-}
-[[maybe_unused]] Bounds3f lane_box(const detail::BVHQuantWideNode& n, int l) { return detail::dequantized_box(n, l); }
+using detail::lane_box;
 
 // The sum of the built layout's wide-node areas, from its own nodes: the
 // root's box (the binary root's) and every inner lane's box. Also counts the

@@ -374,6 +374,17 @@ inline Bounds3f dequantized_box(const BVHQuantWideNode& n, int l) {
   }
   return b;
 }
+// The box traversal tests for lane l of a node of either layout.
+inline Bounds3f lane_box(const BVHQuantWideNode& n, int l) { return dequantized_box(n, l); }
+inline Bounds3f lane_box(const BVHFloatWideNode& n, int l) {
+  constexpr int W = wide_width;
+  Bounds3f b;
+  for (int a = 0; a < 3; ++a) {
+    b.min[a] = n.b[2 * W * a + l];
+    b.max[a] = n.b[2 * W * a + W + l];
+  }
+  return b;
+}
 // The same for a float node: lanes from k on get the empty box (+inf, -inf).
 // A NaN bound (which the builder's unions never produce) is stored as an
 // unbounded one, -inf or +inf: the exact slab test ignores NaN planes, the

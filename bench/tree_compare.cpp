@@ -1,0 +1,189 @@
+// bench/tree_compare.cpp — prism's BVH against a tree from Embree's own SAH
+// builder, by what a ray set crosses: node boxes, leaf boxes and the
+// triangles in those leaves, per ray. Not a timing: it tells whether a
+// traversal gap lies in the tree (more boxes crossed) or in the cost of each
+// visit (docs/performance.md, issue 11, fourteenth step).
+//
+// Embree's tree comes from its public builder API (rtcBuildBVH, 8-wide,
+// RTC_BUILD_QUALITY_MEDIUM, SAH blocks and smallest leaf as given), the
+// setting its scene builder uses for BVH8 with Triangle4 leaves when the
+// block is 4; the traversal structure of rtcIntersect1 itself is not
+// reachable through the API. prism's tree is MeshAccel's with default options.
+//
+// Rays: the procedural mesh of traversal_bench (12 N^2 triangles), a pinhole
+// raster, and from each hit an incoherent ray (cosine about the facing
+// normal). Only the incoherent rays that escape are counted: with no hit,
+// every box they cross is visited whatever the traversal order, so the
+// counts depend on the tree alone.
+//
+// Usage: tree_compare [--n N (30)] [--res R (400)] [--block B (4)] [--min-leaf M (4)]
+#include <embree3/rtcore.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "procedural_mesh.hpp"
+#include "prism/accel/scene_accel.hpp"
+#include "prism/math/frame.hpp"
+#include "prism/sampling/warps.hpp"
+
+namespace {
+
+using namespace prism;
+
+struct Counts {
+  long nodes = 0, leaves = 0, triangles = 0;
+};
+
+// Whether the ray's half-line [0, inf) meets the box (in double: the counts
+// should not depend on either library's rounding).
+bool crosses(const Bounds3f& b, const Point3f& o, const Vector3f& d) {
+  double t0 = 0, t1 = 1e300;
+  for (int a = 0; a < 3; ++a) {
+    double inv = 1.0 / double(d[a]);
+    double tn = (double(b.min[a]) - o[a]) * inv, tf = (double(b.max[a]) - o[a]) * inv;
+    if (tn > tf) std::swap(tn, tf);
+    t0 = std::max(t0, tn);
+    t1 = std::min(t1, tf);
+  }
+  return t0 <= t1;
+}
+
+// Embree's tree, in nodes the callbacks allocate.
+struct ENode {
+  bool leaf = false;
+  unsigned n = 0;  // children, or primitives of a leaf
+  ENode* child[8] = {};
+  Bounds3f box[8];
+};
+void* create_node(RTCThreadLocalAllocator a, unsigned k, void*) {
+  return new (rtcThreadLocalAlloc(a, sizeof(ENode), 16)) ENode{false, k, {}, {}};
+}
+void set_children(void* p, void** c, unsigned k, void*) {
+  for (unsigned i = 0; i < k; ++i) static_cast<ENode*>(p)->child[i] = static_cast<ENode*>(c[i]);
+}
+void set_bounds(void* p, const RTCBounds** b, unsigned k, void*) {
+  for (unsigned i = 0; i < k; ++i) {
+    Bounds3f& box = static_cast<ENode*>(p)->box[i];
+    box.min = {b[i]->lower_x, b[i]->lower_y, b[i]->lower_z};
+    box.max = {b[i]->upper_x, b[i]->upper_y, b[i]->upper_z};
+  }
+}
+void* create_leaf(RTCThreadLocalAllocator a, const RTCBuildPrimitive*, size_t n, void*) {
+  return new (rtcThreadLocalAlloc(a, sizeof(ENode), 16)) ENode{true, unsigned(n), {}, {}};
+}
+void walk(const ENode& n, const Point3f& o, const Vector3f& d, Counts& c) {
+  ++c.nodes;
+  for (unsigned i = 0; i < n.n; ++i) {
+    if (!crosses(n.box[i], o, d)) continue;
+    if (n.child[i]->leaf) {
+      ++c.leaves;
+      c.triangles += n.child[i]->n;
+    } else {
+      walk(*n.child[i], o, d, c);
+    }
+  }
+}
+
+void walk(std::span<const detail::BVHWideNode> w, uint32_t i, const Point3f& o, const Vector3f& d, Counts& c) {
+  ++c.nodes;
+  for (int l = 0; l < detail::wide_width; ++l) {
+    uint32_t count = w[i].count[l];
+    if (count == 0 || !crosses(detail::lane_box(w[i], l), o, d)) continue;
+    if (count == detail::BVHWideNode::interior) {
+      walk(w, w[i].child[l], o, d, c);
+    } else {
+      ++c.leaves;
+      c.triangles += count;
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int n = 30, res = 400, block = 4, min_leaf = 4;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    int* v = a == "--n" ? &n : a == "--res" ? &res : a == "--block" ? &block : a == "--min-leaf" ? &min_leaf : nullptr;
+    if (v == nullptr || i + 1 >= argc || (*v = std::atoi(argv[++i])) < 1) {
+      std::fprintf(stderr, "usage: tree_compare [--n N (30)] [--res R (400)] [--block B (4)] [--min-leaf M (4)]\n");
+      return 2;
+    }
+  }
+  TriangleMesh mesh = prism_bench::make_displaced_sphere(n);
+  SceneAccel scene;
+  scene.add_mesh_instance(scene.add_mesh(mesh));
+  BVHBuildOptions opt;
+  scene.build(opt);
+  std::span<const detail::BVHWideNode> wide = scene.mesh_accels()[0].bvh().wide_nodes();
+
+  RTCDevice device = rtcNewDevice("threads=1");
+  size_t nt = mesh.triangle_count();
+  std::vector<RTCBuildPrimitive> prims(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    Bounds3f b;
+    for (int v = 0; v < 3; ++v) b = union_bounds(b, Bounds3f(mesh.positions[mesh.indices[3 * t + size_t(v)]]));
+    prims[t] = {b.min.x, b.min.y, b.min.z, 0, b.max.x, b.max.y, b.max.z, unsigned(t)};
+  }
+  RTCBuildArguments args = rtcDefaultBuildArguments();
+  args.maxBranchingFactor = 8;
+  args.maxDepth = 64;
+  args.sahBlockSize = unsigned(block);
+  args.minLeafSize = unsigned(min_leaf);
+  args.maxLeafSize = RTC_BUILD_MAX_PRIMITIVES_PER_LEAF;
+  args.bvh = rtcNewBVH(device);
+  args.primitives = prims.data();
+  args.primitiveCount = nt;
+  args.primitiveArrayCapacity = nt;
+  args.createNode = create_node;
+  args.setNodeChildren = set_children;
+  args.setNodeBounds = set_bounds;
+  args.createLeaf = create_leaf;
+  const ENode* root = static_cast<const ENode*>(rtcBuildBVH(&args));
+  if (root == nullptr) {
+    std::fprintf(stderr, "tree_compare: rtcBuildBVH failed\n");
+    return 1;
+  }
+
+  Bounds3f bb = scene.bounds();
+  Point3f c = bb.centroid();
+  Float radius = 0.5f * length(bb.diagonal());
+  const Point3f eye = c + Vector3f{0.3f, 0.4f, 4.0f} * (radius / 2);
+  Counts pc, ec;
+  long rays = 0;
+  for (int y = 0; y < res; ++y)
+    for (int x = 0; x < res; ++x) {
+      Vector3f d = normalize(Vector3f{(Float(x) + 0.5f) / Float(res) * 0.8f - 0.45f,
+                                      0.35f - (Float(y) + 0.5f) / Float(res) * 0.8f, -1.0f});
+      auto h = scene.intersect(Ray{eye, d});
+      if (!h) continue;
+      PCG32 rng(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed);
+      const uint32_t* tri = &mesh.indices[3 * size_t(h->primitive)];
+      Point3f p0 = mesh.positions[tri[0]], p1 = mesh.positions[tri[1]], p2 = mesh.positions[tri[2]];
+      Vector3f nn = normalize(cross(p1 - p0, p2 - p0));
+      if (dot(nn, d) > 0) nn = -nn;
+      Point3f o = eye + d * h->t + nn * 1e-4f;
+      Vector3f w = normalize(Frame::from_z(nn).from_local(sample_cosine_hemisphere({rng.next_float(), rng.next_float()})));
+      if (scene.intersect(Ray{o, w})) continue;  // escaping rays only
+      ++rays;
+      walk(wide, 0, o, w, pc);
+      walk(*root, o, w, ec);
+    }
+  if (rays == 0) {
+    std::fprintf(stderr, "tree_compare: no escaping rays\n");
+    return 1;
+  }
+  auto row = [&](const char* name, const Counts& k) {
+    std::printf("%-34s nodes %6.2f  leaves %6.2f  triangles %6.2f per ray\n", name, double(k.nodes) / double(rays),
+                double(k.leaves) / double(rays), double(k.triangles) / double(rays));
+  };
+  std::printf("%zu triangles, %ld escaping incoherent rays\n", nt, rays);
+  row("prism (MeshAccel defaults)", pc);
+  std::string e = "Embree rtcBuildBVH (block " + std::to_string(block) + ", min leaf " + std::to_string(min_leaf) + ")";
+  row(e.c_str(), ec);
+  rtcReleaseBVH(args.bvh);
+  rtcReleaseDevice(device);
+}
