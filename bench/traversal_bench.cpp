@@ -60,6 +60,7 @@
 #include "prism/math/frame.hpp"
 #include "prism/sampling/pcg32.hpp"
 #include "prism/sampling/warps.hpp"
+#include "support/meshes.hpp"
 #ifdef PRISM_HAS_GLTF
 #include "prism/io/gltf.hpp"
 #include "prism/io/image_io.hpp"
@@ -149,27 +150,7 @@ TriangleMesh make_sliver_scene() {
 // 4), each end a fan of n thin triangles: 4n triangles, every one a
 // candidate for pre-splitting. For the edge rays with pre-splitting on.
 constexpr Point3f tube_c0{-16, -12, -18}, tube_c1{16, 12, 18};  // about 54 apart
-TriangleMesh make_sliver_tube(int n) {
-  const Point3f c0 = tube_c0, c1 = tube_c1;
-  Vector3f w = normalize(c1 - c0);
-  Vector3f u = normalize(cross(w, Vector3f{1, 0, 0}));
-  Vector3f v = cross(w, u);
-  TriangleMesh m;
-  for (int i = 0; i < n; ++i) {  // vertex 2i on the c0 ring, 2i + 1 on the c1 ring
-    Float a = 2 * pi * Float(i) / Float(n);
-    Vector3f off = (u * std::cos(a) + v * std::sin(a)) * 4.0f;
-    m.positions.push_back(c0 + off);
-    m.positions.push_back(c1 + off);
-  }
-  const uint32_t un = uint32_t(n), centre0 = 2 * un, centre1 = centre0 + 1;
-  m.positions.push_back(c0);
-  m.positions.push_back(c1);
-  for (uint32_t i = 0; i < un; ++i) {
-    uint32_t j = (i + 1) % un, b0 = 2 * i, b1 = 2 * j, t0 = b0 + 1, t1 = b1 + 1;
-    m.indices.insert(m.indices.end(), {b0, b1, t1, b0, t1, t0, centre0, b1, b0, centre1, t0, t1});
-  }
-  return m;
-}
+TriangleMesh make_sliver_tube(int n) { return prism::test::sliver_tube(n, 4, tube_c0, tube_c1); }
 
 // ------------------------------------------------------------- glTF scene
 
