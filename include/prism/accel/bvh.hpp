@@ -419,6 +419,25 @@ inline V vmax(V a, V b) { return _mm256_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm256_min_ps(a, b); }
 inline int le_mask(V a, V b) { return _mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
 inline void store(Float* p, V a) { _mm256_store_ps(p, a); }
+inline V load(const Float* p) { return _mm256_load_ps(p); }
+// Eight bytes as eight floats.
+inline V load_u8(const uint8_t* p) {
+#if defined(__AVX2__)
+  return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+#else
+  __m128i b = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p));
+  __m128i lo = _mm_cvtepu8_epi32(b), hi = _mm_cvtepu8_epi32(_mm_srli_si128(b, 4));
+  return _mm256_cvtepi32_ps(_mm256_insertf128_si256(_mm256_castsi128_si256(lo), hi, 1));
+#endif
+}
+// org + q * scale (q * scale exact for quantized planes: fused or not, one rounding).
+inline V plane(V q, V scale, V org) {
+#if defined(__FMA__)
+  return _mm256_fmadd_ps(q, scale, org);
+#else
+  return _mm256_add_ps(org, _mm256_mul_ps(q, scale));
+#endif
+}
 #if defined(PRISM_BVH_FMA_SLABS)
 using I = __m256i;
 inline I fmsub_bits(V a, V b, V c) { return _mm256_castps_si256(_mm256_fmsub_ps(a, b, c)); }
@@ -441,6 +460,15 @@ inline V vmax(V a, V b) { return _mm_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm_min_ps(a, b); }
 inline int le_mask(V a, V b) { return _mm_movemask_ps(_mm_cmple_ps(a, b)); }
 inline void store(Float* p, V a) { _mm_store_ps(p, a); }
+inline V load(const Float* p) { return _mm_load_ps(p); }
+// Four bytes as four floats (SSE2 unpacking).
+inline V load_u8(const uint8_t* p) {
+  int32_t v;
+  std::memcpy(&v, p, 4);
+  __m128i z = _mm_setzero_si128();
+  return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(v), z), z));
+}
+inline V plane(V q, V scale, V org) { return _mm_add_ps(org, _mm_mul_ps(q, scale)); }
 #if defined(PRISM_BVH_FMA_SLABS)
 using I = __m128i;
 inline I fmsub_bits(V a, V b, V c) { return _mm_castps_si128(_mm_fmsub_ps(a, b, c)); }
@@ -636,113 +664,70 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 }
 #endif
 
-// The slab test of every lane of a wide node (see slab_lanes).
-inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-#if defined(PRISM_BVH_AVX_NODES)
-  __m256 pn[3], pf[3];
-  for (int a = 0; a < 3; ++a) {
-    pn[a] = _mm256_load_ps(n.b + r.near_off[a]);
-    pf[a] = _mm256_load_ps(n.b + r.far_off[a]);
-  }
-  return slab_lanes(pn, pf, r, t_cull, t_entry);
-#elif defined(PRISM_BVH_SSE)
+// The slab test of every lane of a wide node, a register of lanes at a time
+// (eight with AVX nodes, four with SSE, one in the portable build):
+// planes(h, pn, pf) writes the near and far planes per axis of the lanes
+// from h on.
+template <class Planes>
+inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entry, Planes&& planes) {
   int mask = 0;
-  for (int h = 0; h < wide_width; h += 4) {
-    __m128 pn[3], pf[3];
-    for (int a = 0; a < 3; ++a) {
-      pn[a] = _mm_load_ps(n.b + r.near_off[a] + h);
-      pf[a] = _mm_load_ps(n.b + r.far_off[a] + h);
-    }
+#if defined(PRISM_BVH_SSE)
+  constexpr int G = int(sizeof(bx::V) / sizeof(Float));
+  for (int h = 0; h < wide_width; h += G) {
+    bx::V pn[3], pf[3];
+    planes(h, pn, pf);
     mask |= slab_lanes(pn, pf, r, t_cull, t_entry + h) << h;
   }
-  return mask;
 #else
-  int mask = 0;
   for (int l = 0; l < wide_width; ++l) {
     Float pn[3], pf[3];
-    for (int a = 0; a < 3; ++a) {
-      pn[a] = n.b[r.near_off[a] + l];
-      pf[a] = n.b[r.far_off[a] + l];
-    }
+    planes(l, pn, pf);
     if (slab_lane(pn, pf, r, t_cull, t_entry + l)) mask |= 1 << l;
   }
-  return mask;
 #endif
+  return mask;
+}
+
+// The slab test of every lane of a float node (see slab_lanes).
+inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+  return slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
+    for (int a = 0; a < 3; ++a) {
+#if defined(PRISM_BVH_SSE)
+      pn[a] = bx::load(n.b + r.near_off[a] + h);
+      pf[a] = bx::load(n.b + r.far_off[a] + h);
+#else
+      pn[a] = n.b[r.near_off[a] + h];
+      pf[a] = n.b[r.far_off[a] + h];
+#endif
+    }
+  });
 }
 
 // The same for a quantized node: each lane's planes are dequantized (exactly
 // as dequantize() computes them) and then tested as above, so every lane's
-// result is the float node's on the box dequantized_box() gives.
+// result is the float node's on the box dequantized_box() gives. An axis that
+// could not be quantized (origin NaN) is unbounded: NaN planes in the portable
+// build (ignored by the exact test), infinite ones in the SIMD builds (the
+// directed-FMA path needs planes that are not NaN).
 inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-#if defined(PRISM_BVH_AVX_NODES)
-  // Eight bytes from q + off as eight floats.
-  auto load_q = [&](int off) {
-#if defined(__AVX2__)
-    return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(n.q + off))));
-#else
-    __m128i b = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(n.q + off));
-    __m128i lo = _mm_cvtepu8_epi32(b), hi = _mm_cvtepu8_epi32(_mm_srli_si128(b, 4));
-    return _mm256_cvtepi32_ps(_mm256_insertf128_si256(_mm256_castsi128_si256(lo), hi, 1));
-#endif
-  };
-  __m256 pn[3], pf[3];
-  for (int a = 0; a < 3; ++a) {
-    if (std::isnan(n.origin[a])) {  // an unquantized axis: unbounded (NaN planes, ignored, in the exact test)
-      bool lo_near = r.near_off[a] % (2 * wide_width) == 0;
-      pn[a] = _mm256_set1_ps(lo_near ? -infinity : infinity);
-      pf[a] = _mm256_set1_ps(lo_near ? infinity : -infinity);
-      continue;
-    }
-    __m256 org = _mm256_broadcast_ss(n.origin + a);
-    __m256 scale = _mm256_set1_ps(quant_scale(n.exp[a]));
-#if defined(__FMA__)
-    pn[a] = _mm256_fmadd_ps(load_q(r.near_off[a]), scale, org);
-    pf[a] = _mm256_fmadd_ps(load_q(r.far_off[a]), scale, org);
-#else
-    pn[a] = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.near_off[a]), scale));
-    pf[a] = _mm256_add_ps(org, _mm256_mul_ps(load_q(r.far_off[a]), scale));
-#endif
-  }
-  return slab_lanes(pn, pf, r, t_cull, t_entry) & n.lanes;
-#elif defined(PRISM_BVH_SSE)
-  // Four bytes from q + off as four floats (SSE2 unpacking).
-  auto load_q = [&](int off) {
-    int32_t v;
-    std::memcpy(&v, n.q + off, 4);
-    __m128i z = _mm_setzero_si128();
-    __m128i b = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(v), z), z);
-    return _mm_cvtepi32_ps(b);
-  };
-  int mask = 0;
-  for (int h = 0; h < wide_width; h += 4) {
-    __m128 pn[3], pf[3];
+  return slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
     for (int a = 0; a < 3; ++a) {
-      if (std::isnan(n.origin[a])) {  // an unquantized axis: unbounded (see the AVX path)
+#if defined(PRISM_BVH_SSE)
+      if (std::isnan(n.origin[a])) {
         bool lo_near = r.near_off[a] % (2 * wide_width) == 0;
-        pn[a] = _mm_set1_ps(lo_near ? -infinity : infinity);
-        pf[a] = _mm_set1_ps(lo_near ? infinity : -infinity);
+        pn[a] = bx::set1(lo_near ? -infinity : infinity);
+        pf[a] = bx::set1(lo_near ? infinity : -infinity);
         continue;
       }
-      __m128 org = _mm_set1_ps(n.origin[a]);
-      __m128 scale = _mm_set1_ps(quant_scale(n.exp[a]));
-      pn[a] = _mm_add_ps(org, _mm_mul_ps(load_q(r.near_off[a] + h), scale));
-      pf[a] = _mm_add_ps(org, _mm_mul_ps(load_q(r.far_off[a] + h), scale));
-    }
-    mask |= slab_lanes(pn, pf, r, t_cull, t_entry + h) << h;
-  }
-  return mask & n.lanes;
+      const bx::V org = bx::set1(n.origin[a]), scale = bx::set1(quant_scale(n.exp[a]));
+      pn[a] = bx::plane(bx::load_u8(n.q + r.near_off[a] + h), scale, org);
+      pf[a] = bx::plane(bx::load_u8(n.q + r.far_off[a] + h), scale, org);
 #else
-  int mask = 0;
-  for (int l = 0; l < wide_width; ++l) {
-    Float pn[3], pf[3];
-    for (int a = 0; a < 3; ++a) {
-      pn[a] = dequantize(n.origin[a], n.exp[a], n.q[r.near_off[a] + l]);
-      pf[a] = dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + l]);
-    }
-    if (slab_lane(pn, pf, r, t_cull, t_entry + l)) mask |= 1 << l;
-  }
-  return mask & n.lanes;
+      pn[a] = dequantize(n.origin[a], n.exp[a], n.q[r.near_off[a] + h]);
+      pf[a] = dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + h]);
 #endif
+    }
+  }) & n.lanes;
 }
 
 // Starts loading a wide node that traversal has deferred, so that it is in
