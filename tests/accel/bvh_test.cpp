@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <cstring>
@@ -700,7 +701,15 @@ TEST_CASE("the binary tree is freed unless kept, and refit recomputes the wide b
     all = union_bounds(all, x);
   }
   lean.refit([&](size_t i) { return moved[i]; }, 1);
-  kept.refit([&](size_t i) { return moved[i]; }, 2);
+  // Each primitive's box is asked for once, though the kept tree needs it twice.
+  std::vector<std::atomic<int>> asked(moved.size());
+  kept.refit(
+      [&](size_t i) {
+        asked[i].fetch_add(1);
+        return moved[i];
+      },
+      2);
+  CHECK(std::all_of(asked.begin(), asked.end(), [](const std::atomic<int>& k) { return k.load() == 1; }));
   CHECK(same_layout(lean, kept));
   CHECK(!same_layout(lean, before));
   CHECK(same_box(lean.bounds(), all));

@@ -923,6 +923,23 @@ class BVH {
   void refit(BoundsOf&& bounds_of, int threads = 0) {
     if (m_wide.empty()) return;
     threads = detail::build_threads(threads);
+    if (!m_nodes.empty()) {
+      // A kept binary tree needs the same primitive boxes as the wide
+      // layout: ask for each once, then refit both from the copies.
+      std::vector<Bounds3f> prim_box(m_prims.empty() ? 0 : size_t(*std::max_element(m_prims.begin(), m_prims.end())) + 1);
+      detail::parallel_chunks(prim_box.size(), detail::parallel_chunk_count(prim_box.size(), threads),
+                              [&](size_t b, size_t e, int) {
+                                for (size_t i = b; i < e; ++i) prim_box[i] = bounds_of(i);
+                              });
+      refit_layouts([&](size_t i) { return prim_box[i]; }, threads);
+      return;
+    }
+    refit_layouts(bounds_of, threads);
+  }
+
+ private:
+  template <class BoundsOf>
+  void refit_layouts(BoundsOf&& bounds_of, int threads) {
     constexpr int W = detail::wide_width;
     // The leaf lanes' boxes, in parallel (the bulk of the work: one call of
     // bounds_of per primitive); then the inner lanes and the nodes' own
@@ -970,6 +987,8 @@ class BVH {
       }
     }
   }
+
+ public:
 
   bool empty() const { return m_wide.empty(); }
   // The binary tree the traversal layout was derived from; empty unless the
