@@ -23,7 +23,7 @@
 // docs/performance.md has the measurements behind the default.
 #if defined(PRISM_TRIANGLE_PACKET_WIDTH)
 #define PRISM_TRIANGLE_PACKET_W PRISM_TRIANGLE_PACKET_WIDTH
-#elif defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
+#elif defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
 #define PRISM_TRIANGLE_PACKET_W 8
 #else
 #define PRISM_TRIANGLE_PACKET_W 4
@@ -31,14 +31,14 @@
 
 #if defined(PRISM_BVH_NO_SIMD)
 #elif PRISM_TRIANGLE_PACKET_W == 8
-#if defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF)
+#if defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF)
 #include <immintrin.h>
 #define PRISM_TRIANGLE_SIMD 1
 #endif
-#elif defined(__FMA__) && defined(__AVX__) && defined(FP_FAST_FMAF)
+#elif defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF)
 #include <immintrin.h>
 #define PRISM_TRIANGLE_SIMD 1
-#elif (defined(__SSE2__) || defined(_M_X64)) && !defined(FP_FAST_FMAF)
+#elif (defined(__SSE2__) || defined(_M_X64)) && !defined(PRISM_FAST_FMAF)
 // SSE2 without FMA: the edge functions in double, as difference_of_products.
 #include <emmintrin.h>
 #define PRISM_TRIANGLE_SIMD 1

@@ -88,13 +88,21 @@ inline Float safe_acos(Float x) { return std::acos(std::clamp(x, Float(-1), Floa
 constexpr Float radians(Float deg) { return (pi / 180) * deg; }
 constexpr Float degrees(Float rad) { return (180 / pi) * rad; }
 
+// PRISM_FAST_FMAF: std::fma on floats compiles to one instruction. <cmath>
+// says so with FP_FAST_FMAF under GCC; clang does not define it (version 14
+// with -march=native on an FMA machine), so the target's own FMA macros count
+// too (x86 __FMA__, Arm __ARM_FEATURE_FMA).
+#if defined(FP_FAST_FMAF) || defined(__FMA__) || defined(__ARM_FEATURE_FMA)
+#define PRISM_FAST_FMAF 1
+#endif
+
 // a*b - c*d and a*b + c*d, accurate to within 1.5 ulp, with the exact sign.
-// With a hardware FMA (FP_FAST_FMAF): Kahan's algorithm, two FMAs. Without
+// With a hardware FMA (PRISM_FAST_FMAF): Kahan's algorithm, two FMAs. Without
 // one, where std::fma is a slow library call: in double, where the product of
 // two floats is exact, so the result is the exact value rounded to double and
 // then to float (within about half an ulp); it is zero exactly when the exact
 // value is (unless that underflows in float).
-#if defined(FP_FAST_FMAF)
+#if defined(PRISM_FAST_FMAF)
 inline Float difference_of_products(Float a, Float b, Float c, Float d) {
   Float cd = c * d;
   Float diff = std::fma(a, b, -cd);
