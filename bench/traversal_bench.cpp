@@ -276,7 +276,13 @@ struct EmbreeScene {
   std::vector<float> verts;  // padded: Embree reads 16 bytes at the last vertex
   std::vector<uint32_t> indices;
 
-  EmbreeScene(const TriangleMesh& m, int threads, const std::string& extra_config = "") {
+  // MEDIUM is Embree's default (binned SAH); HIGH adds its spatial splits,
+  // the counterpart of prism's pre-splitting.
+  RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM;
+
+  EmbreeScene(const TriangleMesh& m, int threads, const std::string& extra_config = "",
+              RTCBuildQuality q = RTC_BUILD_QUALITY_MEDIUM)
+      : quality(q) {
     std::string cfg = "threads=" + std::to_string(threads);
     if (!extra_config.empty()) cfg += "," + extra_config;
     device = rtcNewDevice(cfg.c_str());
@@ -300,8 +306,9 @@ struct EmbreeScene {
   double build() {
     if (scene) rtcReleaseScene(scene);
     scene = rtcNewScene(device);
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+    rtcSetSceneBuildQuality(scene, quality);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(g, quality);
     size_t nv = (verts.size() - 4) / 3, nt = indices.size() / 3;
     rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, verts.data(), 0, 3 * sizeof(float), nv);
     rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices.data(), 0,
@@ -650,10 +657,10 @@ struct Options {
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
   float split_budget = BVHBuildOptions{}.split_budget;  // of prism's mesh builds (the library's default)
-  // The cases to run (--cases, comma-separated): procedural, slivers,
+  // The cases to run (--cases, comma-separated): procedural, slivers, slivers_hq (Embree at its high build quality),
   // watertight, metalroughspheres. All by default; A/B comparisons of a
   // change usually need only one.
-  std::string cases = "procedural,slivers,watertight,metalroughspheres";
+  std::string cases = "procedural,slivers,slivers_hq,watertight,metalroughspheres";
   // Appended to Embree's device configuration (--embree-config), e.g.
   // "isa=avx2" to hold Embree to the kernels prism has on this machine.
   std::string embree_config;
@@ -729,7 +736,8 @@ struct ExtraRaySet {
 };
 
 void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f view_dir, const Options& opt,
-              std::vector<CsvRow>& rows, const std::vector<ExtraRaySet>& external = {}) {
+              std::vector<CsvRow>& rows, const std::vector<ExtraRaySet>& external = {},
+              RTCBuildQuality embree_quality = RTC_BUILD_QUALITY_MEDIUM) {
   size_t ntri = mesh.triangle_count();
   std::printf("\n== %s: %zu triangles, %zu vertices\n", case_name.c_str(), ntri, mesh.positions.size());
   std::fflush(stdout);
@@ -745,7 +753,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
 
   // Build: median of reps, prism and Embree alternating.
   for (int th : opt.threads) {
-    auto em = std::make_unique<EmbreeScene>(mesh, th, opt.embree_config);
+    auto em = std::make_unique<EmbreeScene>(mesh, th, opt.embree_config, embree_quality);
     std::vector<double> tp, te;
     BVHBuildOptions bo;
     bo.threads = th;
@@ -978,7 +986,7 @@ int main(int argc, char** argv) {
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
                    "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n"
-                   "       [--cases procedural,slivers,watertight,metalroughspheres (default: all)]\n"
+                   "       [--cases procedural,slivers,slivers_hq,watertight,metalroughspheres (default: all)]\n"
                    "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n"
                    "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
@@ -1003,6 +1011,10 @@ int main(int argc, char** argv) {
     }
   }
   if (opt.runs("slivers")) run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
+  // The same against Embree's spatial-split build (RTC_BUILD_QUALITY_HIGH):
+  // each library's layout that traces slivers fastest.
+  if (opt.runs("slivers_hq"))
+    run_case("slivers_hq", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows, {}, RTC_BUILD_QUALITY_HIGH);
   // Edge rays into the tube: towards a point at least 1 inside either end and
   // at most half as far from the axis as the target.
   if (opt.runs("watertight"))

@@ -522,7 +522,7 @@ struct WideRayPrecomp {
 #else
   Float o[3], inv_d[3];
 #endif
-  int near_off[3], far_off[3];
+  ptrdiff_t near_off[3], far_off[3];  // pointer-sized: no sign extension per load
   bool fast = false;  // the directed-FMA path (PRISM_BVH_FMA_SLABS only)
   // From a ray: the same values as from RayBoxPrecomp(org, d), in fewer steps
   // (one division for the three axes where SSE is available).
