@@ -809,7 +809,13 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float*
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(child), gather(node.child));
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
   if constexpr (with_t) _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), _mm256_permutevar8x32_epi32(tv, slot));
-  return _mm256_cvtsi256_si32(by_distance);
+  // The nearest lane, the sort's first, by a horizontal minimum of the keys
+  // (unique: the lane is in them): three steps instead of the sort's six, so
+  // that traversal can go on to the nearest child before the sort is done.
+  __m256i m = _mm256_min_epi32(key, _mm256_permute2x128_si256(key, key, 0x01));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
+  return _mm256_cvtsi256_si32(m) & 7;
 }
 
 // The lanes of a node that hold inner nodes (bit l for lane l).
