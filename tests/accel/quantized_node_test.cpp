@@ -163,7 +163,7 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
   // quantized node's, for rays from random origins towards the boxes, some
   // axis-aligned (infinite inv_d) and some grazing a box face.
   PCG32 rng(12, 0x9a);
-  int rays = 0, entered = 0, culled = 0, later = 0;
+  int rays = 0, entered = 0, culled = 0, later = 0, outside_wrong = 0;
   std::string first;
   for (int it = 0; it < 4000; ++it) {
     Bounds3f box[W];
@@ -197,6 +197,17 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
       const Float t_cull = detail::widen_exit(t_max);
       int mf = detail::intersect_wide(fn, r, t_cull, tf);
       int mq = detail::intersect_wide(qn, r, t_cull, tq);
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+      // The vector of lanes not entered (push_by_distance's input): the
+      // complement of the mask, the unused lanes included.
+      {
+        detail::LaneMaskV of, oq;
+        alignas(32) Float t2[W];
+        if (detail::intersect_wide(fn, r, t_cull, t2, &of) != mf || _mm256_movemask_ps(of) != (~mf & 0xff) ||
+            detail::intersect_wide(qn, r, t_cull, t2, &oq) != mq || _mm256_movemask_ps(oq) != (~mq & 0xff))
+          ++outside_wrong;
+      }
+#endif
       ++rays;
       for (int l = 0; l < k; ++l) {
         if (!(mf >> l & 1)) continue;
@@ -215,4 +226,5 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
   CHECK(entered > rays / 2);
   CHECK(culled == 0);
   CHECK(later == 0);
+  CHECK(outside_wrong == 0);
 }

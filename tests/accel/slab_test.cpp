@@ -190,6 +190,18 @@ void check_node(PCG32& rng, Float s, Tally& t) {
         if (mask >> l & 1 && std::bit_cast<uint32_t>(t_entry[l]) != std::bit_cast<uint32_t>(t_entry2[l])) same = false;
       if (!same) t.fail(t.mismatched, "the two ray set-ups differ: " + describe(o, d, t_max, box[0]));
     }
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+    // The lanes not entered, as the vector push_by_distance takes: the
+    // complement of the mask, unused lanes included.
+    {
+      detail::LaneMaskV outside;
+      alignas(32) Float t_entry3[W];
+      int mask3 = detail::intersect_wide(node, r, t_cull, t_entry3, &outside);
+      if (mask3 != mask || _mm256_movemask_ps(outside) != (~mask & 0xff))
+        t.fail(t.mismatched, "the vector of lanes not entered is not the mask's complement: " +
+                                 describe(o, d, t_max, box[0]));
+    }
+#endif
     double o_over_d = 0;
     for (int a = 0; a < 3; ++a)
       if (d[a] != 0) o_over_d = std::max(o_over_d, std::abs(double(o[a]) / double(d[a])));

@@ -418,6 +418,7 @@ inline V mul(V a, V b) { return _mm256_mul_ps(a, b); }
 inline V vmax(V a, V b) { return _mm256_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm256_min_ps(a, b); }
 inline int le_mask(V a, V b) { return _mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
+inline V nle(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_NLE_UQ); }  // not a <= b (NaN: true)
 inline void store(Float* p, V a) { _mm256_store_ps(p, a); }
 inline V load(const Float* p) { return _mm256_load_ps(p); }
 // Eight bytes as eight floats.
@@ -442,11 +443,13 @@ inline V plane(V q, V scale, V org) {
 using I = __m256i;
 inline I fmsub_bits(V a, V b, V c) { return _mm256_castps_si256(_mm256_fmsub_ps(a, b, c)); }
 inline I bits(V a) { return _mm256_castps_si256(a); }
+inline V as_v(I a) { return _mm256_castsi256_ps(a); }
 inline I izero() { return _mm256_setzero_si256(); }
 inline I imax(I a, I b) { return _mm256_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm256_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
-inline int igt_mask(I a, I b) { return _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(a, b))); }
+inline I igt(I a, I b) { return _mm256_cmpgt_epi32(a, b); }
+inline int igt_mask(I a, I b) { return _mm256_movemask_ps(_mm256_castsi256_ps(igt(a, b))); }
 inline void store_bits(Float* p, I a) { _mm256_store_ps(p, _mm256_castsi256_ps(a)); }
 #endif
 #else
@@ -459,6 +462,7 @@ inline V mul(V a, V b) { return _mm_mul_ps(a, b); }
 inline V vmax(V a, V b) { return _mm_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm_min_ps(a, b); }
 inline int le_mask(V a, V b) { return _mm_movemask_ps(_mm_cmple_ps(a, b)); }
+inline V nle(V a, V b) { return _mm_cmpnle_ps(a, b); }  // not a <= b (NaN: true)
 inline void store(Float* p, V a) { _mm_store_ps(p, a); }
 inline V load(const Float* p) { return _mm_load_ps(p); }
 // Four bytes as four floats (SSE2 unpacking).
@@ -473,11 +477,13 @@ inline V plane(V q, V scale, V org) { return _mm_add_ps(org, _mm_mul_ps(q, scale
 using I = __m128i;
 inline I fmsub_bits(V a, V b, V c) { return _mm_castps_si128(_mm_fmsub_ps(a, b, c)); }
 inline I bits(V a) { return _mm_castps_si128(a); }
+inline V as_v(I a) { return _mm_castsi128_ps(a); }
 inline I izero() { return _mm_setzero_si128(); }
 inline I imax(I a, I b) { return _mm_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
-inline int igt_mask(I a, I b) { return _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpgt_epi32(a, b))); }
+inline I igt(I a, I b) { return _mm_cmpgt_epi32(a, b); }
+inline int igt_mask(I a, I b) { return _mm_movemask_ps(_mm_castsi128_ps(igt(a, b))); }
 inline void store_bits(Float* p, I a) { _mm_store_ps(p, _mm_castsi128_ps(a)); }
 #endif
 #endif
@@ -612,7 +618,11 @@ struct WideRayPrecomp {
 // t_cull also keeps its widening there, which covers the rounding of the
 // triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_SSE)
-inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+// `outside`, if given, gets the lanes not entered as a vector (all bits set),
+// the mask's complement, for the AVX2 ordering (push_by_distance), which
+// then need not rebuild it from the mask.
+inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
+                      bx::V* outside = nullptr) {
   using namespace bx;
 #if defined(PRISM_BVH_FMA_SLABS)
   if (r.fast) {
@@ -631,6 +641,7 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
     // when the exact exit is, and t_cull only for a t_max below -2^-147 (a
     // t_max of +-0 gives a small positive t_cull); +inf + 5 ulps is a
     // positive NaN pattern, above every t0.
+    if (outside) *outside = as_v(igt(t0, t1));
     return ~igt_mask(t0, t1) & ((1 << (sizeof(V) / sizeof(Float))) - 1);
   }
 #endif
@@ -645,6 +656,7 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
   // widen_exit, lane by lane, then min with t_cull.
   t1 = vmin(mul(add(t1, set1(box_exit_slack)), set1(box_exit_widen)), set1(t_cull));
   store(t_entry, t0);
+  if (outside) *outside = nle(t0, t1);
   return le_mask(t0, t1);
 }
 #else
@@ -668,11 +680,25 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 // (eight with AVX nodes, four with SSE, one in the portable build):
 // planes(h, pn, pf) writes the near and far planes per axis of the lanes
 // from h on.
+//
+// `outside` (nodes of one register of lanes only, the AVX nodes) gets the
+// lanes not entered as a vector, all bits set (see slab_lanes).
+#if defined(PRISM_BVH_SSE)
+using LaneMaskV = bx::V;
+#else
+using LaneMaskV = Float;  // (not used: the portable build has no lane vectors)
+#endif
 template <class Planes>
-inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entry, Planes&& planes) {
+inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entry, Planes&& planes,
+                            [[maybe_unused]] LaneMaskV* outside) {
   int mask = 0;
 #if defined(PRISM_BVH_SSE)
   constexpr int G = int(sizeof(bx::V) / sizeof(Float));
+  if constexpr (G == wide_width) {
+    bx::V pn[3], pf[3];
+    planes(0, pn, pf);
+    return slab_lanes(pn, pf, r, t_cull, t_entry, outside);
+  }
   for (int h = 0; h < wide_width; h += G) {
     bx::V pn[3], pf[3];
     planes(h, pn, pf);
@@ -689,7 +715,8 @@ inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entr
 }
 
 // The slab test of every lane of a float node (see slab_lanes).
-inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
+inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
+                          LaneMaskV* outside = nullptr) {
   return slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
     for (int a = 0; a < 3; ++a) {
 #if defined(PRISM_BVH_SSE)
@@ -700,7 +727,7 @@ inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Fl
       pf[a] = n.b[r.far_off[a] + h];
 #endif
     }
-  });
+  }, outside);
 }
 
 // The same for a quantized node: each lane's planes are dequantized (exactly
@@ -709,8 +736,9 @@ inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Fl
 // could not be quantized (origin NaN) is unbounded: NaN planes in the portable
 // build (ignored by the exact test), infinite ones in the SIMD builds (the
 // directed-FMA path needs planes that are not NaN).
-inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry) {
-  return slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
+inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
+                          LaneMaskV* outside = nullptr) {
+  int mask = slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
     for (int a = 0; a < 3; ++a) {
 #if defined(PRISM_BVH_SSE)
       if (std::isnan(n.origin[a])) {
@@ -727,7 +755,15 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
       pf[a] = dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + h]);
 #endif
     }
-  }) & n.lanes;
+  }, outside);
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+  if (outside) {  // the unused lanes too
+    const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    const __m256i used = _mm256_and_si256(_mm256_set1_epi32(int(n.lanes)), bit);
+    *outside = _mm256_or_ps(*outside, _mm256_castsi256_ps(_mm256_cmpeq_epi32(used, _mm256_setzero_si256())));
+  }
+#endif
+  return mask & n.lanes;
 }
 
 // Starts loading a wide node that traversal has deferred, so that it is in
@@ -789,16 +825,17 @@ inline __m256i sort8(__m256i x) {
 // entries are stored; those past the entered ones are scratch). Returns the
 // nearest lane. Entry distances are >= +0, so their bits order like them.
 // Without `with_t` (any hit, which culls nothing it has pushed), t is neither
-// written nor needed.
+// written nor needed. `outside` is intersect_wide's vector of the lanes not
+// entered (the complement of mask).
 template <bool with_t = true>
-inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
-                            uint32_t* count, Float* t) {
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 outside, const Float* t_entry,
+                            uint32_t* child, uint32_t* count, Float* t) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   const __m256i tv = _mm256_load_si256(reinterpret_cast<const __m256i*>(t_entry));
-  const __m256i entered = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), bit);
+  // Lanes not entered get INT32_MAX: the sign bit of their (all-ones) mask
+  // cleared, the rest of it set.
   __m256i key = _mm256_or_si256(_mm256_andnot_si256(_mm256_set1_epi32(7), tv), lane);
-  key = _mm256_blendv_epi8(_mm256_set1_epi32(INT32_MAX), key, entered);
+  key = _mm256_or_si256(key, _mm256_srli_epi32(_mm256_castps_si256(outside), 1));
   const __m256i by_distance = _mm256_and_si256(sort8(key), _mm256_set1_epi32(7));
   // Slot j of the push holds the (n - 1 - j)-th nearest (n entered lanes).
   const int n = std::popcount(mask);
@@ -816,6 +853,14 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float*
   m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
   m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
   return _mm256_cvtsi256_si32(m) & 7;
+}
+// The same with the lanes not entered taken from the mask.
+template <bool with_t = true>
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
+                            uint32_t* count, Float* t) {
+  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m256i out = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), _mm256_setzero_si256());
+  return push_by_distance<with_t>(node, mask, _mm256_castsi256_ps(out), t_entry, child, count, t);
 }
 
 // The lanes of a node that hold inner nodes (bit l for lane l).
@@ -1057,7 +1102,8 @@ class BVH {
       // cache miss instead of two in a row when the node is not in cache).
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
+      detail::LaneMaskV outside;  // the lanes not entered, for push_by_distance
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
       if (mask != 0) {
         // Visit the nearest child next and defer the others, farthest deepest.
         // Deferred inner nodes start loading now (for rays whose nodes are not
@@ -1082,7 +1128,12 @@ class BVH {
             if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
           } else {
             // Three or more.
+#if defined(PRISM_BVH_SORT_AVX2)
+            l = detail::push_by_distance(node, mask, outside, t_entry, stack_child + sp, stack_count + sp,
+                                         stack_t + sp);
+#else
             l = detail::push_by_distance(node, mask, t_entry, stack_child + sp, stack_count + sp, stack_t + sp);
+#endif
             sp += std::popcount(mask) - 1;
             prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
           }
@@ -1147,9 +1198,10 @@ class BVH {
       const detail::BVHWideNode& node = m_wide[idx];
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry));
+      detail::LaneMaskV outside;
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
       if (mask != 0) {
-        int l = visit_nearest(node, mask, t_entry, stack_child, stack_count, sp);
+        int l = visit_nearest(node, mask, outside, t_entry, stack_child, stack_count, sp);
         if (node.count[l] == detail::BVHWideNode::interior) {
           idx = node.child[l];
           continue;
@@ -1179,8 +1231,8 @@ class BVH {
   // pushed), starts loading the deferred inner nodes, and returns the nearest
   // lane. Closest hit has the same code written out, with distances (see
   // intersect_leaves).
-  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* stack_child,
-                    uint32_t* stack_count, int& sp) const {
+  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, [[maybe_unused]] detail::LaneMaskV outside,
+                    const Float* t_entry, uint32_t* stack_child, uint32_t* stack_count, int& sp) const {
     int l = std::countr_zero(mask);
     unsigned rest = mask & (mask - 1);
     if (rest == 0) return l;
@@ -1194,7 +1246,11 @@ class BVH {
       if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
       return near;
     }
+#if defined(PRISM_BVH_SORT_AVX2)
+    l = detail::push_by_distance<false>(node, mask, outside, t_entry, stack_child + sp, stack_count + sp, nullptr);
+#else
     l = detail::push_by_distance<false>(node, mask, t_entry, stack_child + sp, stack_count + sp, nullptr);
+#endif
     sp += std::popcount(mask) - 1;
     prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
     return l;
