@@ -72,21 +72,19 @@ void AB_FN(ab_setup)(int res) {
   const Point3f eye{0.3f, 0.4f, 4.0f};
   for (int y = 0; y < res; ++y)
     for (int x = 0; x < res; ++x) {
-      Vector3f d = normalize(Vector3f{(Float(x) + 0.5f) / Float(res) * 0.8f - 0.45f,
-                                      0.35f - (Float(y) + 0.5f) / Float(res) * 0.8f, -1.0f});
+      Vector3f d = prism_bench::raster_direction(x, y, res);
       state->rays[0].add(eye, d, infinity);
       Float t = infinity;
       TriangleHit h;
       uint32_t tri = 0;
       if (!state->accel.intersect(eye, d, &t, &h, &tri)) continue;
-      PCG32 rng(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed);
-      Point3f a = m.positions[m.indices[3 * tri]], b = m.positions[m.indices[3 * tri + 1]],
-              c = m.positions[m.indices[3 * tri + 2]];
-      Vector3f n = normalize(cross(b - a, c - a));
-      if (dot(n, d) > 0) n = -n;
-      Point3f p = eye + d * t + n * 1e-4f;  // off the surface by far more than its error
-      Vector3f w = Frame::from_z(n).from_local(sample_cosine_hemisphere({rng.next_float(), rng.next_float()}));
-      state->rays[1].add(p, normalize(w), infinity);
+      PCG32 rng = prism_bench::pixel_rng(x, y, res);
+      Vector3f n;
+      prism_bench::BounceRay bounce =
+          prism_bench::incoherent_ray(eye + d * t, m.positions[m.indices[3 * tri]], m.positions[m.indices[3 * tri + 1]],
+                                      m.positions[m.indices[3 * tri + 2]], d, rng, &n);
+      const Point3f p = bounce.o;
+      state->rays[1].add(p, bounce.d, infinity);
       Vector3f u = sample_uniform_sphere({rng.next_float(), rng.next_float()});
       if (dot(u, n) < 0) u = -u;
       Vector3f to = u * 2.0f - Vector3f(p);

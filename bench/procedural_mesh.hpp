@@ -1,12 +1,16 @@
 // bench/procedural_mesh.hpp — the benches' code-built ~1M-triangle mesh: a
 // cube-sphere displaced by fractal value noise (deterministic). Shared by
 // traversal_bench.cpp and ab_traversal.cpp, so both trace the same triangles.
+// Also the pinhole raster and the incoherent rays from its hits that
+// ab_traversal and tree_compare trace.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
 #include "prism/geometry/triangle.hpp"
+#include "prism/math/frame.hpp"
 #include "prism/sampling/pcg32.hpp"
+#include "prism/sampling/warps.hpp"
 
 namespace prism_bench {
 
@@ -70,6 +74,32 @@ inline TriangleMesh make_displaced_sphere(int n) {
       }
   }
   return m;
+}
+
+// Pixel (x, y) of a res x res pinhole raster looking down -z (from an eye
+// in front of the mesh, +z): the ray's direction.
+inline Vector3f raster_direction(int x, int y, int res) {
+  return normalize(Vector3f{(Float(x) + 0.5f) / Float(res) * 0.8f - 0.45f,
+                            0.35f - (Float(y) + 0.5f) / Float(res) * 0.8f, -1.0f});
+}
+// The pixel's random stream (rays derived from its hit).
+inline PCG32 pixel_rng(int x, int y, int res) { return PCG32(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed); }
+
+// From a hit at p on triangle (a, b, c) seen along d: the geometric normal
+// facing the viewer (*facing), and an incoherent ray, its origin 1e-4 off the
+// surface (far more than the hit's rounding) and its direction
+// cosine-distributed about that normal (two numbers from rng).
+struct BounceRay {
+  Point3f o;
+  Vector3f d;
+};
+inline BounceRay incoherent_ray(const Point3f& p, const Point3f& a, const Point3f& b, const Point3f& c,
+                                const Vector3f& d, PCG32& rng, Vector3f* facing = nullptr) {
+  Vector3f n = normalize(cross(b - a, c - a));
+  if (dot(n, d) > 0) n = -n;
+  if (facing) *facing = n;
+  Vector3f w = Frame::from_z(n).from_local(sample_cosine_hemisphere({rng.next_float(), rng.next_float()}));
+  return {p + n * 1e-4f, normalize(w)};
 }
 
 }  // namespace prism_bench

@@ -245,18 +245,14 @@ int main(int argc, char** argv) {
   };
   for (int y = 0; y < res; ++y)
     for (int x = 0; x < res; ++x) {
-      Vector3f d = normalize(Vector3f{(Float(x) + 0.5f) / Float(res) * 0.8f - 0.45f,
-                                      0.35f - (Float(y) + 0.5f) / Float(res) * 0.8f, -1.0f});
+      Vector3f d = prism_bench::raster_direction(x, y, res);
       auto h = scene.intersect(Ray{eye, d});
       if (!h) continue;
       closest_both(eye, d, 0, h->t);
-      PCG32 rng(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed);
+      PCG32 rng = prism_bench::pixel_rng(x, y, res);
       const uint32_t* tri = &mesh.indices[3 * size_t(h->primitive)];
-      Point3f p0 = mesh.positions[tri[0]], p1 = mesh.positions[tri[1]], p2 = mesh.positions[tri[2]];
-      Vector3f nn = normalize(cross(p1 - p0, p2 - p0));
-      if (dot(nn, d) > 0) nn = -nn;
-      Point3f o = eye + d * h->t + nn * 1e-4f;
-      Vector3f w = normalize(Frame::from_z(nn).from_local(sample_cosine_hemisphere({rng.next_float(), rng.next_float()})));
+      auto [o, w] = prism_bench::incoherent_ray(eye + d * h->t, mesh.positions[tri[0]], mesh.positions[tri[1]],
+                                                mesh.positions[tri[2]], d, rng);
       if (auto hw = scene.intersect(Ray{o, w})) {
         closest_both(o, w, 1, hw->t);
         continue;
