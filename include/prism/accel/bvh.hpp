@@ -1102,7 +1102,7 @@ class BVH {
       // cache miss instead of two in a row when the node is not in cache).
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      detail::LaneMaskV outside;  // the lanes not entered, for push_by_distance
+      detail::LaneMaskV outside{};  // the lanes not entered, for push_by_distance (AVX nodes only)
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
       if (mask != 0) {
         // Visit the nearest child next and defer the others, farthest deepest.
@@ -1198,7 +1198,7 @@ class BVH {
       const detail::BVHWideNode& node = m_wide[idx];
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      detail::LaneMaskV outside;
+      detail::LaneMaskV outside{};
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
       if (mask != 0) {
         int l = visit_nearest(node, mask, outside, t_entry, stack_child, stack_count, sp);
