@@ -22,6 +22,7 @@
 #include "prism/accel/bvh.hpp"
 #include "prism/sampling/pcg32.hpp"
 
+#include "support/lanes.hpp"
 #include "support/random.hpp"
 
 #if defined(__SIZEOF_FLOAT128__)  // GCC and Clang on x86-64
@@ -192,12 +193,13 @@ void check_node(PCG32& rng, Float s, Tally& t) {
     }
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
     // The lanes not entered, as the vector push_by_distance takes: the
-    // complement of the mask, unused lanes included.
+    // complement of the mask, unused lanes included, every lane all ones or
+    // all zeros (whole lanes compared, not just their sign bits).
     {
       detail::LaneMaskV outside;
       alignas(32) Float t_entry3[W];
       int mask3 = detail::intersect_wide(node, r, t_cull, t_entry3, &outside);
-      if (mask3 != mask || _mm256_movemask_ps(outside) != (~mask & 0xff))
+      if (mask3 != mask || !test::same_lanes(outside, detail::lanes_outside(unsigned(mask))))
         t.fail(t.mismatched, "the vector of lanes not entered is not the mask's complement: " +
                                  describe(o, d, t_max, box[0]));
     }

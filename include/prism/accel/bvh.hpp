@@ -30,6 +30,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <future>
@@ -449,7 +450,7 @@ inline I imax(I a, I b) { return _mm256_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm256_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
 inline I igt(I a, I b) { return _mm256_cmpgt_epi32(a, b); }
-inline int igt_mask(I a, I b) { return _mm256_movemask_ps(_mm256_castsi256_ps(igt(a, b))); }
+inline int sign_mask(I a) { return _mm256_movemask_ps(_mm256_castsi256_ps(a)); }
 inline void store_bits(Float* p, I a) { _mm256_store_ps(p, _mm256_castsi256_ps(a)); }
 #endif
 #else
@@ -483,7 +484,7 @@ inline I imax(I a, I b) { return _mm_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
 inline I igt(I a, I b) { return _mm_cmpgt_epi32(a, b); }
-inline int igt_mask(I a, I b) { return _mm_movemask_ps(_mm_castsi128_ps(igt(a, b))); }
+inline int sign_mask(I a) { return _mm_movemask_ps(_mm_castsi128_ps(a)); }
 inline void store_bits(Float* p, I a) { _mm_store_ps(p, _mm_castsi128_ps(a)); }
 #endif
 #endif
@@ -528,7 +529,7 @@ struct WideRayPrecomp {
 #else
   Float o[3], inv_d[3];
 #endif
-  ptrdiff_t near_off[3], far_off[3];  // pointer-sized: no sign extension per load
+  std::ptrdiff_t near_off[3], far_off[3];  // pointer-sized: no sign extension per load
   bool fast = false;  // the directed-FMA path (PRISM_BVH_FMA_SLABS only)
   // From a ray: the same values as from RayBoxPrecomp(org, d), in fewer steps
   // (one division for the three axes where SSE is available).
@@ -618,9 +619,12 @@ struct WideRayPrecomp {
 // t_cull also keeps its widening there, which covers the rounding of the
 // triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_SSE)
-// `outside`, if given, gets the lanes not entered as a vector (all bits set),
-// the mask's complement, for the AVX2 ordering (push_by_distance), which
-// then need not rebuild it from the mask.
+// `outside`, if given, gets the lanes not entered as a vector, the mask's
+// complement with each lane all ones or all zeros. Every build with lane
+// vectors writes it; only the AVX2 ordering of 8-wide nodes reads it
+// (push_by_distance), which then need not rebuild it from the mask.
+// Every lane's entry distance, entered or not, is >= +0 (sign bit clear):
+// t0 starts at +0 and a NaN plane distance never wins the max.
 inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
                       bx::V* outside = nullptr) {
   using namespace bx;
@@ -641,8 +645,9 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
     // when the exact exit is, and t_cull only for a t_max below -2^-147 (a
     // t_max of +-0 gives a small positive t_cull); +inf + 5 ulps is a
     // positive NaN pattern, above every t0.
-    if (outside) *outside = as_v(igt(t0, t1));
-    return ~igt_mask(t0, t1) & ((1 << (sizeof(V) / sizeof(Float))) - 1);
+    const I out = igt(t0, t1);
+    if (outside) *outside = as_v(out);
+    return ~sign_mask(out) & ((1 << (sizeof(V) / sizeof(Float))) - 1);
   }
 #endif
   V t0 = zero();
@@ -681,8 +686,11 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 // planes(h, pn, pf) writes the near and far planes per axis of the lanes
 // from h on.
 //
-// `outside` (nodes of one register of lanes only, the AVX nodes) gets the
-// lanes not entered as a vector, all bits set (see slab_lanes).
+// `outside` gets the lanes not entered as a vector (see slab_lanes) when a
+// node's lanes fill one register (8-wide nodes on AVX, 4-wide on SSE); it is
+// left as it was otherwise. Whether it holds the unused lanes of a quantized
+// node too depends on the build: see intersect_wide. Traversal reads it only
+// under PRISM_BVH_SORT_AVX2.
 #if defined(PRISM_BVH_SSE)
 using LaneMaskV = bx::V;
 #else
@@ -730,6 +738,15 @@ inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Fl
   }, outside);
 }
 
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+// The vector of lanes not in `mask`: all ones in lane l when bit l is clear.
+inline __m256 lanes_outside(unsigned mask) {
+  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  return _mm256_castsi256_ps(
+      _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), _mm256_setzero_si256()));
+}
+#endif
+
 // The same for a quantized node: each lane's planes are dequantized (exactly
 // as dequantize() computes them) and then tested as above, so every lane's
 // result is the float node's on the box dequantized_box() gives. An axis that
@@ -757,10 +774,10 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
     }
   }, outside);
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-  if (outside) {  // the unused lanes too
-    const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    const __m256i used = _mm256_and_si256(_mm256_set1_epi32(int(n.lanes)), bit);
-    *outside = _mm256_or_ps(*outside, _mm256_castsi256_ps(_mm256_cmpeq_epi32(used, _mm256_setzero_si256())));
+  // The unused lanes too, in the one build that reads `outside`
+  // (PRISM_BVH_SORT_AVX2); elsewhere it holds only the box test's result.
+  if (outside) {
+    *outside = _mm256_or_ps(*outside, lanes_outside(n.lanes));
   }
 #endif
   return mask & n.lanes;
@@ -824,9 +841,12 @@ inline __m256i sort8(__m256i x) {
 // three), all but the nearest written farthest first to child/count/t (eight
 // entries are stored; those past the entered ones are scratch). Returns the
 // nearest lane. Entry distances are >= +0, so their bits order like them.
+// Precondition: every lane of t_entry, entered or not, has its sign bit clear
+// (slab_lanes guarantees it): a lane not entered gets its key by OR with
+// INT32_MAX, which leaves a set sign bit set and would sort it first.
 // Without `with_t` (any hit, which culls nothing it has pushed), t is neither
 // written nor needed. `outside` is intersect_wide's vector of the lanes not
-// entered (the complement of mask).
+// entered (the complement of mask), each lane all ones or all zeros.
 template <bool with_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 outside, const Float* t_entry,
                             uint32_t* child, uint32_t* count, Float* t) {
@@ -854,14 +874,6 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 outsi
   m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
   return _mm256_cvtsi256_si32(m) & 7;
 }
-// The same with the lanes not entered taken from the mask.
-template <bool with_t = true>
-inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
-                            uint32_t* count, Float* t) {
-  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  const __m256i out = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), _mm256_setzero_si256());
-  return push_by_distance<with_t>(node, mask, _mm256_castsi256_ps(out), t_entry, child, count, t);
-}
 
 // The lanes of a node that hold inner nodes (bit l for lane l).
 inline unsigned inner_lanes(const BVHWideNode& node) {
@@ -871,10 +883,11 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
 #else
 // The same ordering without AVX2: (distance, lane) keys sorted by insertion
 // (distances are >= +0, so their bit patterns order like their values; ties
-// keep lane order), then written farthest first.
+// keep lane order), then written farthest first. The vector of lanes not
+// entered is not needed here.
 template <bool with_t = true>
-inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
-                            uint32_t* count, Float* t) {
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*outside*/, const Float* t_entry,
+                            uint32_t* child, uint32_t* count, Float* t) {
   uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
   int n = 0;
   for (; mask != 0; mask &= mask - 1) {
@@ -899,6 +912,18 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
   return m;
 }
 #endif
+
+// push_by_distance with the lanes not entered taken from the mask, for
+// callers without intersect_wide's vector.
+template <bool with_t = true>
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
+                            uint32_t* count, Float* t) {
+#if defined(PRISM_BVH_SORT_AVX2)
+  return push_by_distance<with_t>(node, mask, lanes_outside(mask), t_entry, child, count, t);
+#else
+  return push_by_distance<with_t>(node, mask, LaneMaskV{}, t_entry, child, count, t);
+#endif
+}
 
 }  // namespace detail
 
@@ -1128,12 +1153,8 @@ class BVH {
             if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
           } else {
             // Three or more.
-#if defined(PRISM_BVH_SORT_AVX2)
             l = detail::push_by_distance(node, mask, outside, t_entry, stack_child + sp, stack_count + sp,
                                          stack_t + sp);
-#else
-            l = detail::push_by_distance(node, mask, t_entry, stack_child + sp, stack_count + sp, stack_t + sp);
-#endif
             sp += std::popcount(mask) - 1;
             prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
           }
@@ -1231,7 +1252,7 @@ class BVH {
   // pushed), starts loading the deferred inner nodes, and returns the nearest
   // lane. Closest hit has the same code written out, with distances (see
   // intersect_leaves).
-  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, [[maybe_unused]] detail::LaneMaskV outside,
+  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, detail::LaneMaskV outside,
                     const Float* t_entry, uint32_t* stack_child, uint32_t* stack_count, int& sp) const {
     int l = std::countr_zero(mask);
     unsigned rest = mask & (mask - 1);
@@ -1246,11 +1267,7 @@ class BVH {
       if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
       return near;
     }
-#if defined(PRISM_BVH_SORT_AVX2)
     l = detail::push_by_distance<false>(node, mask, outside, t_entry, stack_child + sp, stack_count + sp, nullptr);
-#else
-    l = detail::push_by_distance<false>(node, mask, t_entry, stack_child + sp, stack_count + sp, nullptr);
-#endif
     sp += std::popcount(mask) - 1;
     prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
     return l;
