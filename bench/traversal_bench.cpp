@@ -32,7 +32,9 @@
 // the traversal rows (12 N^2 triangles; small meshes keep the BVH in cache).
 // Second code-built case, "slivers" (make_sliver_scene): long thin triangles
 // where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget,
-// on by default for slivers only) pays.
+// on by default for slivers only) pays. "slivers_nosplit": the same scene
+// with prism's pre-splitting off (split budget 0), its fastest build, against
+// Embree's default build: the other side of the trade.
 // --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
 // stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
@@ -657,10 +659,10 @@ struct Options {
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
   float split_budget = BVHBuildOptions{}.split_budget;  // of prism's mesh builds (the library's default)
-  // The cases to run (--cases, comma-separated): procedural, slivers, slivers_hq (Embree at its high build quality),
-  // watertight, metalroughspheres. All by default; A/B comparisons of a
+  // The cases to run (--cases, comma-separated): procedural, slivers, slivers_nosplit (prism without
+  // pre-splitting), slivers_hq (Embree at its high build quality), watertight, metalroughspheres. All by default; A/B comparisons of a
   // change usually need only one.
-  std::string cases = "procedural,slivers,slivers_hq,watertight,metalroughspheres";
+  std::string cases = "procedural,slivers,slivers_nosplit,slivers_hq,watertight,metalroughspheres";
   // Appended to Embree's device configuration (--embree-config), e.g.
   // "isa=avx2" to hold Embree to the kernels prism has on this machine.
   std::string embree_config;
@@ -986,7 +988,8 @@ int main(int argc, char** argv) {
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
                    "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n"
-                   "       [--cases procedural,slivers,slivers_hq,watertight,metalroughspheres (default: all)]\n"
+                   "       [--cases procedural,slivers,slivers_nosplit,slivers_hq,watertight,metalroughspheres\n"
+                   "        (default: all)]\n"
                    "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n"
                    "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
@@ -1011,6 +1014,13 @@ int main(int argc, char** argv) {
     }
   }
   if (opt.runs("slivers")) run_case("slivers", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows);
+  // Without pre-splitting: prism's fastest build of the scene, against
+  // Embree's default build (how much of the build ratio the splits cost).
+  if (opt.runs("slivers_nosplit")) {
+    Options no_split = opt;
+    no_split.split_budget = 0;
+    run_case("slivers_nosplit", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, no_split, rows);
+  }
   // The same against Embree's spatial-split build (RTC_BUILD_QUALITY_HIGH):
   // each library's layout that traces slivers fastest.
   if (opt.runs("slivers_hq"))
