@@ -100,7 +100,10 @@ struct BVHBuildOptions {
   // a fraction of the triangle count; 0 = off. Only triangles whose box's
   // surface area is at least split_threshold times twice their area are cut:
   // long thin or large diagonal slivers. A mesh without them (a ratio of 2 to
-  // about 6 is usual) is built exactly as with splitting off.
+  // about 6 is usual) is built exactly as with splitting off. Where it cuts,
+  // it trades build time for tracing: on traversal_bench's sliver scene the
+  // build takes 1.7x as long and rays trace 1.7-1.9x faster; 0 suits a mesh
+  // rebuilt every frame and traced little.
   float split_budget = 0.3f;
   float split_threshold = 32;
   // Keep the binary tree that the wide traversal layout is derived from
