@@ -164,7 +164,7 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
   // quantized node's, for rays from random origins towards the boxes, some
   // axis-aligned (infinite inv_d) and some grazing a box face.
   PCG32 rng(12, 0x9a);
-  int rays = 0, entered = 0, culled = 0, later = 0, outside_wrong = 0;
+  int rays = 0, entered = 0, culled = 0, later = 0, inside_wrong = 0;
   std::string first;
   for (int it = 0; it < 4000; ++it) {
     Bounds3f box[W];
@@ -199,17 +199,17 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
       int mf = detail::intersect_wide(fn, r, t_cull, tf);
       int mq = detail::intersect_wide(qn, r, t_cull, tq);
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-      // The vector of lanes not entered (push_by_distance's input): the
-      // complement of the mask, the unused lanes included, compared lane by
-      // lane in full (not just sign bits).
+      // The vector of lanes entered (push_by_distance's input): the mask's
+      // bits, the unused lanes clear, compared lane by lane in full (not
+      // just sign bits).
       {
-        detail::LaneMaskV of, oq;
+        detail::LaneMaskV vf, vq;
         alignas(32) Float t2[W];
-        if (detail::intersect_wide(fn, r, t_cull, t2, &of) != mf ||
-            !test::same_lanes(of, detail::lanes_outside(unsigned(mf))) ||
-            detail::intersect_wide(qn, r, t_cull, t2, &oq) != mq ||
-            !test::same_lanes(oq, detail::lanes_outside(unsigned(mq))))
-          ++outside_wrong;
+        if (detail::intersect_wide(fn, r, t_cull, t2, &vf) != mf ||
+            !test::same_lanes(vf, detail::lanes_inside(unsigned(mf))) ||
+            detail::intersect_wide(qn, r, t_cull, t2, &vq) != mq ||
+            !test::same_lanes(vq, detail::lanes_inside(unsigned(mq))))
+          ++inside_wrong;
       }
 #endif
       ++rays;
@@ -230,5 +230,5 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
   CHECK(entered > rays / 2);
   CHECK(culled == 0);
   CHECK(later == 0);
-  CHECK(outside_wrong == 0);
+  CHECK(inside_wrong == 0);
 }

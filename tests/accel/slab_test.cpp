@@ -192,16 +192,15 @@ void check_node(PCG32& rng, Float s, Tally& t) {
       if (!same) t.fail(t.mismatched, "the two ray set-ups differ: " + describe(o, d, t_max, box[0]));
     }
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-    // The lanes not entered, as the vector push_by_distance takes: the
-    // complement of the mask, unused lanes included, every lane all ones or
-    // all zeros (whole lanes compared, not just their sign bits).
+    // The lanes entered, as the vector push_by_distance takes: the mask's
+    // bits, unused lanes clear, every lane all ones or all zeros (whole
+    // lanes compared, not just their sign bits).
     {
-      detail::LaneMaskV outside;
+      detail::LaneMaskV inside;
       alignas(32) Float t_entry3[W];
-      int mask3 = detail::intersect_wide(node, r, t_cull, t_entry3, &outside);
-      if (mask3 != mask || !test::same_lanes(outside, detail::lanes_outside(unsigned(mask))))
-        t.fail(t.mismatched, "the vector of lanes not entered is not the mask's complement: " +
-                                 describe(o, d, t_max, box[0]));
+      int mask3 = detail::intersect_wide(node, r, t_cull, t_entry3, &inside);
+      if (mask3 != mask || !test::same_lanes(inside, detail::lanes_inside(unsigned(mask))))
+        t.fail(t.mismatched, "the vector of lanes entered is not the mask: " + describe(o, d, t_max, box[0]));
     }
 #endif
     double o_over_d = 0;

@@ -1,5 +1,5 @@
 // Whole-lane comparison of two AVX vectors, for the BVH's vectors of lanes
-// not entered: every bit of every lane, not only the sign bits a movemask
+// entered: every bit of every lane, not only the sign bits a movemask
 // sees (a vector reduced to its sign bits must fail).
 #pragma once
 #include "prism/accel/bvh.hpp"

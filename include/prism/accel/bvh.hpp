@@ -421,8 +421,8 @@ inline V add(V a, V b) { return _mm256_add_ps(a, b); }
 inline V mul(V a, V b) { return _mm256_mul_ps(a, b); }
 inline V vmax(V a, V b) { return _mm256_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm256_min_ps(a, b); }
-inline int le_mask(V a, V b) { return _mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
-inline V nle(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_NLE_UQ); }  // not a <= b (NaN: true)
+inline V le(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }  // a <= b (NaN: false)
+inline int movemask(V a) { return _mm256_movemask_ps(a); }
 inline void store(Float* p, V a) { _mm256_store_ps(p, a); }
 inline V load(const Float* p) { return _mm256_load_ps(p); }
 // Eight bytes as eight floats.
@@ -465,8 +465,8 @@ inline V add(V a, V b) { return _mm_add_ps(a, b); }
 inline V mul(V a, V b) { return _mm_mul_ps(a, b); }
 inline V vmax(V a, V b) { return _mm_max_ps(a, b); }
 inline V vmin(V a, V b) { return _mm_min_ps(a, b); }
-inline int le_mask(V a, V b) { return _mm_movemask_ps(_mm_cmple_ps(a, b)); }
-inline V nle(V a, V b) { return _mm_cmpnle_ps(a, b); }  // not a <= b (NaN: true)
+inline V le(V a, V b) { return _mm_cmple_ps(a, b); }  // a <= b (NaN: false)
+inline int movemask(V a) { return _mm_movemask_ps(a); }
 inline void store(Float* p, V a) { _mm_store_ps(p, a); }
 inline V load(const Float* p) { return _mm_load_ps(p); }
 // Four bytes as four floats (SSE2 unpacking).
@@ -622,14 +622,14 @@ struct WideRayPrecomp {
 // t_cull also keeps its widening there, which covers the rounding of the
 // triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_SSE)
-// `outside`, if given, gets the lanes not entered as a vector, the mask's
-// complement with each lane all ones or all zeros. Every build with lane
-// vectors writes it; only the AVX2 ordering of 8-wide nodes reads it
-// (push_by_distance), which then need not rebuild it from the mask.
+// `inside`, if given, gets the lanes entered as a vector, each lane all ones
+// or all zeros (the mask's bits). Every build with lane vectors writes it;
+// only the AVX2 ordering of 8-wide nodes reads it (push_by_distance), which
+// then need not rebuild it from the mask.
 // Every lane's entry distance, entered or not, is >= +0 (sign bit clear):
 // t0 starts at +0 and a NaN plane distance never wins the max.
 inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
-                      bx::V* outside = nullptr) {
+                      bx::V* inside = nullptr) {
   using namespace bx;
 #if defined(PRISM_BVH_FMA_SLABS)
   if (r.fast) {
@@ -641,16 +641,18 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
     // No NaN can arise (b finite or infinite, inv and c finite and nonzero).
     I t0 = imax(imax(tn[0], tn[1]), imax(tn[2], izero()));
     I t1 = imin(imin(tf[0], tf[1]), imin(tf[2], bits(set1(t_cull))));
-    t1 = iadd(t1, 5);  // five ulps up (see WideRayPrecomp)
     store_bits(t_entry, t0);
-    // t0 >= +0, so t0 <= t1 as numbers exactly when it is as integers. A
-    // negative t1 culls, rightly: a far distance is negative (never -0) only
-    // when the exact exit is, and t_cull only for a t_max below -2^-147 (a
-    // t_max of +-0 gives a small positive t_cull); +inf + 5 ulps is a
-    // positive NaN pattern, above every t0.
-    const I out = igt(t0, t1);
-    if (outside) *outside = as_v(out);
-    return ~sign_mask(out) & ((1 << (sizeof(V) / sizeof(Float))) - 1);
+    // Entered: t0 <= t1 raised by five ulps (see WideRayPrecomp), i.e.
+    // t1 + 6 > t0 as integers (t1 is at most +inf, so no overflow). t0 >=
+    // +0, so t0 <= t1 as numbers exactly when it is as integers. A negative
+    // t1 culls, rightly: a far distance is negative (never -0) only when the
+    // exact exit is, and t_cull only for a t_max below -2^-147 (a t_max of
+    // +-0 gives a small positive t_cull); +inf + 5 ulps is a positive NaN
+    // pattern, above every t0. (One comparison whose result is the mask: its
+    // complement cost two more operations per visit; ab 1.01-1.02.)
+    const I in = igt(iadd(t1, 6), t0);
+    if (inside) *inside = as_v(in);
+    return sign_mask(in);
   }
 #endif
   V t0 = zero();
@@ -664,8 +666,9 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
   // widen_exit, lane by lane, then min with t_cull.
   t1 = vmin(mul(add(t1, set1(box_exit_slack)), set1(box_exit_widen)), set1(t_cull));
   store(t_entry, t0);
-  if (outside) *outside = nle(t0, t1);
-  return le_mask(t0, t1);
+  const V in = le(t0, t1);
+  if (inside) *inside = in;
+  return movemask(in);
 }
 #else
 // One lane from its planes (the portable build: the exact path only).
@@ -689,11 +692,11 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 // planes(h, pn, pf) writes the near and far planes per axis of the lanes
 // from h on.
 //
-// `outside` gets the lanes not entered as a vector (see slab_lanes) when a
-// node's lanes fill one register (8-wide nodes on AVX, 4-wide on SSE); it is
-// left as it was otherwise. Whether it holds the unused lanes of a quantized
-// node too depends on the build: see intersect_wide. Traversal reads it only
-// under PRISM_BVH_SORT_AVX2.
+// `inside` gets the lanes entered as a vector (see slab_lanes) when a node's
+// lanes fill one register (8-wide nodes on AVX, 4-wide on SSE); it is left
+// as it was otherwise. Whether a quantized node's unused lanes are cleared in
+// it depends on the build: see intersect_wide. Traversal reads it only under
+// PRISM_BVH_SORT_AVX2.
 #if defined(PRISM_BVH_SSE)
 using LaneMaskV = bx::V;
 #else
@@ -701,14 +704,14 @@ using LaneMaskV = Float;  // (not used: the portable build has no lane vectors)
 #endif
 template <class Planes>
 inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entry, Planes&& planes,
-                            [[maybe_unused]] LaneMaskV* outside) {
+                            [[maybe_unused]] LaneMaskV* inside) {
   int mask = 0;
 #if defined(PRISM_BVH_SSE)
   constexpr int G = int(sizeof(bx::V) / sizeof(Float));
   if constexpr (G == wide_width) {
     bx::V pn[3], pf[3];
     planes(0, pn, pf);
-    return slab_lanes(pn, pf, r, t_cull, t_entry, outside);
+    return slab_lanes(pn, pf, r, t_cull, t_entry, inside);
   }
   for (int h = 0; h < wide_width; h += G) {
     bx::V pn[3], pf[3];
@@ -727,7 +730,7 @@ inline int slab_lane_groups(const WideRayPrecomp& r, Float t_cull, Float* t_entr
 
 // The slab test of every lane of a float node (see slab_lanes).
 inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
-                          LaneMaskV* outside = nullptr) {
+                          LaneMaskV* inside = nullptr) {
   return slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
     for (int a = 0; a < 3; ++a) {
 #if defined(PRISM_BVH_SSE)
@@ -738,15 +741,14 @@ inline int intersect_wide(const BVHFloatWideNode& n, const WideRayPrecomp& r, Fl
       pf[a] = n.b[r.far_off[a] + h];
 #endif
     }
-  }, outside);
+  }, inside);
 }
 
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-// The vector of lanes not in `mask`: all ones in lane l when bit l is clear.
-inline __m256 lanes_outside(unsigned mask) {
+// The vector of the lanes in `mask`: all ones in lane l when bit l is set.
+inline __m256 lanes_inside(unsigned mask) {
   const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  return _mm256_castsi256_ps(
-      _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), _mm256_setzero_si256()));
+  return _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), bit));
 }
 #endif
 
@@ -757,7 +759,7 @@ inline __m256 lanes_outside(unsigned mask) {
 // build (ignored by the exact test), infinite ones in the SIMD builds (the
 // directed-FMA path needs planes that are not NaN).
 inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
-                          LaneMaskV* outside = nullptr) {
+                          LaneMaskV* inside = nullptr) {
   int mask = slab_lane_groups(r, t_cull, t_entry, [&](int h, auto* pn, auto* pf) {
     for (int a = 0; a < 3; ++a) {
 #if defined(PRISM_BVH_SSE)
@@ -775,12 +777,12 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
       pf[a] = dequantize(n.origin[a], n.exp[a], n.q[r.far_off[a] + h]);
 #endif
     }
-  }, outside);
+  }, inside);
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-  // The unused lanes too, in the one build that reads `outside`
+  // Without the unused lanes, in the one build that reads `inside`
   // (PRISM_BVH_SORT_AVX2); elsewhere it holds only the box test's result.
-  if (outside) {
-    *outside = _mm256_or_ps(*outside, lanes_outside(n.lanes));
+  if (inside) {
+    *inside = _mm256_and_ps(*inside, lanes_inside(n.lanes));
   }
 #endif
   return mask & n.lanes;
@@ -848,17 +850,16 @@ inline __m256i sort8(__m256i x) {
 // (slab_lanes guarantees it): a lane not entered gets its key by OR with
 // INT32_MAX, which leaves a set sign bit set and would sort it first.
 // Without `with_t` (any hit, which culls nothing it has pushed), t is neither
-// written nor needed. `outside` is intersect_wide's vector of the lanes not
-// entered (the complement of mask), each lane all ones or all zeros.
+// written nor needed. `inside` is intersect_wide's vector of the lanes
+// entered (mask's bits), each lane all ones or all zeros.
 template <bool with_t = true>
-inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 outside, const Float* t_entry,
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 inside, const Float* t_entry,
                             uint32_t* child, uint32_t* count, Float* t) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i tv = _mm256_load_si256(reinterpret_cast<const __m256i*>(t_entry));
-  // Lanes not entered get INT32_MAX: the sign bit of their (all-ones) mask
-  // cleared, the rest of it set.
+  // Lanes not entered get INT32_MAX (every bit but the sign bit set).
   __m256i key = _mm256_or_si256(_mm256_andnot_si256(_mm256_set1_epi32(7), tv), lane);
-  key = _mm256_or_si256(key, _mm256_srli_epi32(_mm256_castps_si256(outside), 1));
+  key = _mm256_or_si256(key, _mm256_andnot_si256(_mm256_castps_si256(inside), _mm256_set1_epi32(INT32_MAX)));
   const __m256i by_distance = _mm256_and_si256(sort8(key), _mm256_set1_epi32(7));
   // Slot j of the push holds the (n - 1 - j)-th nearest (n entered lanes).
   const int n = std::popcount(mask);
@@ -889,7 +890,7 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
 // keep lane order), then written farthest first. The vector of lanes not
 // entered is not needed here.
 template <bool with_t = true>
-inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*outside*/, const Float* t_entry,
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*inside*/, const Float* t_entry,
                             uint32_t* child, uint32_t* count, Float* t) {
   uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
   int n = 0;
@@ -922,7 +923,7 @@ template <bool with_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
                             uint32_t* count, Float* t) {
 #if defined(PRISM_BVH_SORT_AVX2)
-  return push_by_distance<with_t>(node, mask, lanes_outside(mask), t_entry, child, count, t);
+  return push_by_distance<with_t>(node, mask, lanes_inside(mask), t_entry, child, count, t);
 #else
   return push_by_distance<with_t>(node, mask, LaneMaskV{}, t_entry, child, count, t);
 #endif
@@ -1130,8 +1131,8 @@ class BVH {
       // cache miss instead of two in a row when the node is not in cache).
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      detail::LaneMaskV outside{};  // the lanes not entered, for push_by_distance (AVX nodes only)
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
+      detail::LaneMaskV inside{};  // the lanes entered, for push_by_distance (AVX nodes only)
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &inside));
       if (mask != 0) {
         // Visit the nearest child next and defer the others, farthest deepest.
         // Deferred inner nodes start loading now (for rays whose nodes are not
@@ -1156,7 +1157,7 @@ class BVH {
             if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
           } else {
             // Three or more.
-            l = detail::push_by_distance(node, mask, outside, t_entry, stack_child + sp, stack_count + sp,
+            l = detail::push_by_distance(node, mask, inside, t_entry, stack_child + sp, stack_count + sp,
                                          stack_t + sp);
             sp += std::popcount(mask) - 1;
             prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
@@ -1222,10 +1223,10 @@ class BVH {
       const detail::BVHWideNode& node = m_wide[idx];
       detail::prefetch_links(&node);
       alignas(32) Float t_entry[detail::wide_width];
-      detail::LaneMaskV outside{};
-      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &outside));
+      detail::LaneMaskV inside{};
+      unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &inside));
       if (mask != 0) {
-        int l = visit_nearest(node, mask, outside, t_entry, stack_child, stack_count, sp);
+        int l = visit_nearest(node, mask, inside, t_entry, stack_child, stack_count, sp);
         if (node.count[l] == detail::BVHWideNode::interior) {
           idx = node.child[l];
           continue;
@@ -1255,7 +1256,7 @@ class BVH {
   // pushed), starts loading the deferred inner nodes, and returns the nearest
   // lane. Closest hit has the same code written out, with distances (see
   // intersect_leaves).
-  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, detail::LaneMaskV outside,
+  int visit_nearest(const detail::BVHWideNode& node, unsigned mask, detail::LaneMaskV inside,
                     const Float* t_entry, uint32_t* stack_child, uint32_t* stack_count, int& sp) const {
     int l = std::countr_zero(mask);
     unsigned rest = mask & (mask - 1);
@@ -1270,7 +1271,7 @@ class BVH {
       if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
       return near;
     }
-    l = detail::push_by_distance<false>(node, mask, outside, t_entry, stack_child + sp, stack_count + sp, nullptr);
+    l = detail::push_by_distance<false>(node, mask, inside, t_entry, stack_child + sp, stack_count + sp, nullptr);
     sp += std::popcount(mask) - 1;
     prefetch_children(node, detail::inner_lanes(node) & mask & ~(1u << l));
     return l;
