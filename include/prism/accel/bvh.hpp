@@ -452,6 +452,7 @@ inline I izero() { return _mm256_setzero_si256(); }
 inline I imax(I a, I b) { return _mm256_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm256_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm256_add_epi32(a, _mm256_set1_epi32(k)); }
+inline I iadd(I a, I b) { return _mm256_add_epi32(a, b); }
 inline I igt(I a, I b) { return _mm256_cmpgt_epi32(a, b); }
 inline int sign_mask(I a) { return _mm256_movemask_ps(_mm256_castsi256_ps(a)); }
 inline void store_bits(Float* p, I a) { _mm256_store_ps(p, _mm256_castsi256_ps(a)); }
@@ -486,6 +487,7 @@ inline I izero() { return _mm_setzero_si128(); }
 inline I imax(I a, I b) { return _mm_max_epi32(a, b); }
 inline I imin(I a, I b) { return _mm_min_epi32(a, b); }
 inline I iadd(I a, int k) { return _mm_add_epi32(a, _mm_set1_epi32(k)); }
+inline I iadd(I a, I b) { return _mm_add_epi32(a, b); }
 inline I igt(I a, I b) { return _mm_cmpgt_epi32(a, b); }
 inline int sign_mask(I a) { return _mm_movemask_ps(_mm_castsi128_ps(a)); }
 inline void store_bits(Float* p, I a) { _mm_store_ps(p, _mm_castsi128_ps(a)); }
@@ -528,6 +530,7 @@ struct WideRayPrecomp {
   bx::V o[3], inv_d[3];
 #if defined(PRISM_BVH_FMA_SLABS)
   bx::V c_near[3], c_far[3];
+  bx::V six;  // integer 6 in every lane (a memory operand in the loop, not rebuilt per visit)
 #endif
 #else
   Float o[3], inv_d[3];
@@ -587,6 +590,7 @@ struct WideRayPrecomp {
     __m128 ok = _mm_and_ps(_mm_cmplt_ps(mag(inv), lim), _mm_cmpge_ps(mag(inv), _mm_set1_ps(0x1p-100f)));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmplt_ps(mag(cn), lim), _mm_cmplt_ps(mag(cf), lim)));
     fast = (_mm_movemask_ps(ok) & 7) == 7;
+    six = bx::as_v(bx::iadd(bx::izero(), 6));
     alignas(16) Float v[2][4];
     _mm_store_ps(v[0], cn);
     _mm_store_ps(v[1], cf);
@@ -650,7 +654,7 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
     // +-0 gives a small positive t_cull); +inf + 5 ulps is a positive NaN
     // pattern, above every t0. (One comparison whose result is the mask: its
     // complement cost two more operations per visit; ab 1.01-1.02.)
-    const I in = igt(iadd(t1, 6), t0);
+    const I in = igt(iadd(t1, bits(r.six)), t0);
     if (inside) *inside = as_v(in);
     return sign_mask(in);
   }
