@@ -824,6 +824,19 @@ inline void prefetch_links(const BVHWideNode* n) {
 #endif
 }
 
+// Two entered lanes a < b in order of entry distance, nearer first (equal
+// distances keep lane order), without a branch: GCC 12 compiles a selection
+// on a float comparison into one, a coin toss for incoherent rays. Entry
+// distances are >= +0, so their bits order like them. Any hit uses it (ab:
+// shadow rays 1.028); closest hit keeps the branch, which primary rays
+// predict well (this form there: primary 0.969, incoherent 0.999).
+inline void nearer_first(const Float* t_entry, int& a, int& b) {
+  const uint32_t ta = std::bit_cast<uint32_t>(t_entry[a]), tb = std::bit_cast<uint32_t>(t_entry[b]);
+  const int x = (a ^ b) & -int(tb < ta);
+  a ^= x;
+  b ^= x;
+}
+
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
 #define PRISM_BVH_SORT_AVX2 1
 // Eight int32 keys in ascending order: Batcher's odd-even merge sort, 19
@@ -1147,9 +1160,9 @@ class BVH {
         if ((mask & (mask - 1)) != 0) {
           unsigned rest = mask & (mask - 1);
           if ((rest & (rest - 1)) == 0) {
-            // Two: equal entry distances keep lane order.
-            // (Selected, not branched on: which is nearer is a coin toss
-            // for incoherent rays.)
+            // Two: equal entry distances keep lane order. (GCC compiles the
+            // selection into a branch, which primary rays predict; the
+            // branch-free nearer_first cost them 3%.)
             int l1 = std::countr_zero(rest);
             bool swap = t_entry[l1] < t_entry[l];
             int near = swap ? l1 : l;
@@ -1265,15 +1278,13 @@ class BVH {
     int l = std::countr_zero(mask);
     unsigned rest = mask & (mask - 1);
     if (rest == 0) return l;
-    if ((rest & (rest - 1)) == 0) {  // two: by selection, equal distances in lane order
+    if ((rest & (rest - 1)) == 0) {  // two: equal distances in lane order
       int l1 = std::countr_zero(rest);
-      bool swap = t_entry[l1] < t_entry[l];
-      int near = swap ? l1 : l;
-      l1 = swap ? l : l1;
+      detail::nearer_first(t_entry, l, l1);
       stack_child[sp] = node.child[l1];
       stack_count[sp++] = node.count[l1];
       if (node.count[l1] == detail::BVHWideNode::interior) detail::prefetch(&m_wide[node.child[l1]]);
-      return near;
+      return l;
     }
     l = detail::push_by_distance<false>(node, mask, inside, t_entry, stack_child + sp, stack_count + sp, nullptr);
     sp += std::popcount(mask) - 1;
