@@ -934,8 +934,8 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
 }
 #endif
 
-// push_by_distance with the lanes not entered taken from the mask, for
-// callers without intersect_wide's vector.
+// push_by_distance with the vector of lanes entered built from the mask,
+// for callers without intersect_wide's vector.
 template <bool with_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
                             uint32_t* count, Float* t) {
