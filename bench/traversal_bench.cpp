@@ -34,7 +34,9 @@
 // where triangle pre-splitting (--split-budget, BVHBuildOptions::split_budget,
 // on by default for slivers only) pays. "slivers_nosplit": the same scene
 // with prism's pre-splitting off (split budget 0), its fastest build, against
-// Embree's default build: the other side of the trade.
+// Embree's default build: the other side of the trade. "slivers_sbvh": prism
+// with spatial splits in its builder (BVHBuildOptions::spatial_splits)
+// against Embree's high-quality build, which has them too.
 // --record-res 0 leaves out the recorded rays; without prism::gltf (tinyexr,
 // stb or tinygltf missing) they are left out too.
 // Run from the project root; writes bench/results/traversal.csv by default, and
@@ -659,10 +661,11 @@ struct Options {
   int record_spp = 64;
   size_t record_cap = 1000000;  // rays kept per kind
   float split_budget = BVHBuildOptions{}.split_budget;  // of prism's mesh builds (the library's default)
+  bool spatial_splits = false;                          // prism's mesh builds with spatial splits (SBVH)
   // The cases to run (--cases, comma-separated): procedural, slivers, slivers_nosplit (prism without
-  // pre-splitting), slivers_hq (Embree at its high build quality), watertight, metalroughspheres. All by default; A/B comparisons of a
+  // pre-splitting), slivers_hq (Embree at its high build quality), slivers_sbvh (both with spatial splits), watertight, metalroughspheres. All by default; A/B comparisons of a
   // change usually need only one.
-  std::string cases = "procedural,slivers,slivers_nosplit,slivers_hq,watertight,metalroughspheres";
+  std::string cases = "procedural,slivers,slivers_nosplit,slivers_hq,slivers_sbvh,watertight,metalroughspheres";
   // Appended to Embree's device configuration (--embree-config), e.g.
   // "isa=avx2" to hold Embree to the kernels prism has on this machine.
   std::string embree_config;
@@ -760,6 +763,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     BVHBuildOptions bo;
     bo.threads = th;
     bo.split_budget = opt.split_budget;
+    bo.spatial_splits = opt.spatial_splits;
     for (int r = 0; r < std::max(3, opt.reps); ++r) {
       double t0 = now_seconds();
       prism_scene.build(bo);
@@ -900,6 +904,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     rotated.add_mesh_instance(rotated.add_mesh(mesh), xf);
     BVHBuildOptions bo;
     bo.split_budget = opt.split_budget;
+    bo.spatial_splits = opt.spatial_splits;
     rotated.build(bo);
     std::vector<BenchRay> world = incoherent;
     for (BenchRay& r : world) {
@@ -988,7 +993,7 @@ int main(int argc, char** argv) {
                    "usage: %s [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE] [--env FILE]\n"
                    "       [--record-res N (0: no recorded rays)] [--record-spp N] [--record-cap N]\n"
                    "       [--split-budget F (prism's BVHBuildOptions::split_budget; default: the library's, %g)]\n"
-                   "       [--cases procedural,slivers,slivers_nosplit,slivers_hq,watertight,metalroughspheres\n"
+                   "       [--cases procedural,slivers,slivers_nosplit,slivers_hq,slivers_sbvh,watertight,metalroughspheres\n"
                    "        (default: all)]\n"
                    "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n"
                    "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n",
@@ -1025,6 +1030,13 @@ int main(int argc, char** argv) {
   // each library's layout that traces slivers fastest.
   if (opt.runs("slivers_hq"))
     run_case("slivers_hq", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, opt, rows, {}, RTC_BUILD_QUALITY_HIGH);
+  // Both with spatial splits in the builder: prism's SBVH option
+  // (BVHBuildOptions::spatial_splits) against Embree's high quality build.
+  if (opt.runs("slivers_sbvh")) {
+    Options sbvh = opt;
+    sbvh.spatial_splits = true;
+    run_case("slivers_sbvh", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, sbvh, rows, {}, RTC_BUILD_QUALITY_HIGH);
+  }
   // Edge rays into the tube: towards a point at least 1 inside either end and
   // at most half as far from the axis as the target.
   if (opt.runs("watertight"))

@@ -82,6 +82,28 @@ TriangleMesh random_long(int n, PCG32& rng) {
   return m;
 }
 
+// "" if the two have the same leaf order and wide nodes, bit for bit.
+std::string layout_difference(const MeshAccel& a, const MeshAccel& b) {
+  if (a.bvh().prims() != b.bvh().prims()) return "leaf order";
+  if (a.bvh().wide_nodes().size() != b.bvh().wide_nodes().size()) return "wide node count";
+  if (std::memcmp(a.bvh().wide_nodes().data(), b.bvh().wide_nodes().data(), a.bvh().wide_nodes().size_bytes()) != 0)
+    return "wide nodes";
+  return {};
+}
+
+// The meshes the brute-force comparisons run on.
+struct SliverCase {
+  const char* name;
+  TriangleMesh mesh;
+};
+std::vector<SliverCase> sliver_cases(PCG32& rng) {
+  std::vector<SliverCase> cases;
+  cases.push_back({"sliver fan", sliver_fan(400, rng)});
+  cases.push_back({"ground and clutter", ground_and_clutter(600, rng)});
+  cases.push_back({"random long triangles", random_long(800, rng)});
+  return cases;
+}
+
 struct Closest {
   bool hit = false;
   Float t = infinity;
@@ -133,8 +155,9 @@ TestRay random_ray(const TriangleMesh& m, const Bounds3f& box, PCG32& rng) {
 // triangle, against brute force; returns a description of the first mismatch
 // (empty if none) and counts hits.
 std::string compare(const TriangleMesh& m, const MeshAccel& acc, int rays, PCG32& rng, int* hits) {
-  Bounds3f box;
-  for (const Point3f& p : m.positions) box = union_bounds(box, p);
+  Bounds3f box;  // of the finite vertices (rays start around it)
+  for (const Point3f& p : m.positions)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) box = union_bounds(box, p);
   for (int r = 0; r < rays; ++r) {
     TestRay ray = random_ray(m, box, rng);
     Float t_max = rng.next_bounded(4) == 0 ? uniform(rng, 0, 40) : infinity;
@@ -239,6 +262,32 @@ TriangleMesh well_shaped(int count, PCG32& rng) {
 
 }  // namespace
 
+// Whether references (box[k] of triangle tri[k]) cover their mesh: boxes
+// outside their triangle's box or empty, triangles without a reference, and
+// points sampled on the triangles (vertices, edges, inside) in none of their
+// references' boxes.
+struct Cover {
+  size_t outside = 0, missing = 0, uncovered = 0;
+};
+Cover cover(const TriangleMesh& mesh, const std::vector<Bounds3f>& box, const std::vector<uint32_t>& tri, PCG32& rng) {
+  Cover c;
+  std::vector<std::vector<Bounds3f>> of(mesh.triangle_count());
+  for (size_t k = 0; k < box.size(); ++k) {
+    uint32_t t = tri[k];
+    Bounds3f tb = triangle_box(vtx(mesh, t, 0), vtx(mesh, t, 1), vtx(mesh, t, 2));
+    if (box[k].empty() || !tb.inside(box[k].min) || !tb.inside(box[k].max)) ++c.outside;
+    of[t].push_back(box[k]);
+  }
+  for (uint32_t t = 0; t < uint32_t(of.size()); ++t) {
+    if (of[t].empty()) {
+      ++c.missing;
+      continue;
+    }
+    c.uncovered += uncovered_points(vtx(mesh, t, 0), vtx(mesh, t, 1), vtx(mesh, t, 2), of[t], rng);
+  }
+  return c;
+}
+
 TEST_CASE("pre-split references cover their triangle and respect the budget", "[accel][presplit]") {
   PCG32 rng(21, 0x5b1);
   TriangleMesh m = random_long(500, rng);
@@ -251,26 +300,12 @@ TEST_CASE("pre-split references cover their triangle and respect the budget", "[
       REQUIRE(r.triangles() == n);
       CHECK(r.size() <= n + size_t(double(budget) * double(n)));
       CHECK(r.size() >= n + size_t(0.5 * double(budget) * double(n)));  // the budget is mostly used
-      std::vector<std::vector<Bounds3f>> of(n);
-      size_t outside = 0, uncovered = 0, missing = 0;
-      for (size_t k = 0; k < r.size(); ++k) {
-        uint32_t t = r.triangle(k);
-        Bounds3f tb = triangle_box(vtx(*mesh, t, 0), vtx(*mesh, t, 1), vtx(*mesh, t, 2));
-        const Bounds3f& b = r.bounds[k];
-        if (b.empty() || !tb.inside(b.min) || !tb.inside(b.max)) ++outside;
-        of[t].push_back(b);
-      }
-      // Points on each triangle: its vertices, points on its edges and inside.
-      for (uint32_t t = 0; t < uint32_t(n); ++t) {
-        if (of[t].empty()) {
-          ++missing;
-          continue;
-        }
-        uncovered += uncovered_points(vtx(*mesh, t, 0), vtx(*mesh, t, 1), vtx(*mesh, t, 2), of[t], rng);
-      }
-      CHECK(missing == 0);
-      CHECK(outside == 0);
-      CHECK(uncovered == 0);
+      std::vector<uint32_t> tri(r.size());
+      for (size_t k = 0; k < r.size(); ++k) tri[k] = r.triangle(k);
+      Cover c = cover(*mesh, r.bounds, tri, rng);
+      CHECK(c.missing == 0);
+      CHECK(c.outside == 0);
+      CHECK(c.uncovered == 0);
     }
 }
 
@@ -332,15 +367,7 @@ TEST_CASE("MeshAccel with and without pre-splitting finds the hits of brute forc
   // Budget 0 is the unsplit layout, where skipping a triangle compares the
   // packet's leaf-order entries at once.
   PCG32 rng(23, 0x5b1);
-  struct Case {
-    const char* name;
-    TriangleMesh mesh;
-  };
-  std::vector<Case> cases;
-  cases.push_back({"sliver fan", sliver_fan(400, rng)});
-  cases.push_back({"ground and clutter", ground_and_clutter(600, rng)});
-  cases.push_back({"random long triangles", random_long(800, rng)});
-  for (const Case& c : cases)
+  for (const SliverCase& c : sliver_cases(rng))
     for (float budget : {0.0f, 0.1f, 0.5f, 3.0f}) {
       MeshAccel acc(c.mesh, with_budget(budget));
       INFO(c.name << ", budget " << budget << ": " << acc.reference_count() << " references for "
@@ -412,10 +439,7 @@ TEST_CASE("by default pre-splitting leaves a mesh of well-shaped triangles alone
   CHECK(BVHBuildOptions{}.split_budget > 0);
   CHECK(by_default.reference_count() == m.triangle_count());
   CHECK(by_default.memory_bytes() == off.memory_bytes());
-  CHECK(by_default.bvh().prims() == off.bvh().prims());
-  REQUIRE(by_default.bvh().wide_nodes().size() == off.bvh().wide_nodes().size());
-  CHECK(std::memcmp(by_default.bvh().wide_nodes().data(), off.bvh().wide_nodes().data(),
-                    off.bvh().wide_nodes().size_bytes()) == 0);
+  CHECK(layout_difference(by_default, off) == "");
 }
 
 TEST_CASE("a sliver in a large mesh costs only its own references", "[accel][presplit]") {
@@ -503,4 +527,222 @@ TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel
     o.split_budget = 0;  // refused with splitting off too
     CHECK_THROWS_AS(MeshAccel(m, o), Error);
   }
+}
+
+// ---------------------------------------------------------------- spatial splits
+// (accel/sbvh.hpp: BVHBuildOptions::spatial_splits)
+
+namespace {
+BVHBuildOptions with_spatial(float budget, float alpha = BVHBuildOptions{}.spatial_alpha, int threads = 0) {
+  BVHBuildOptions o = with_budget(budget, threads);
+  o.spatial_splits = true;
+  o.spatial_alpha = alpha;
+  return o;
+}
+}  // namespace
+
+TEST_CASE("MeshAccel with spatial splits finds the hits of brute force", "[accel][sbvh]") {
+  // Three quarters of compare()'s rays aim at a point on a triangle, so cut
+  // triangles are hit at and near the planes they were cut at. alpha 0 looks
+  // at a spatial split at every node; a budget of 3 lets triangles be cut
+  // many times over.
+  PCG32 rng(31, 0x5b1);
+  for (const SliverCase& c : sliver_cases(rng))
+    for (float budget : {0.1f, 0.5f, 3.0f})
+      for (float alpha : {0.0f, BVHBuildOptions{}.spatial_alpha}) {
+        MeshAccel acc(c.mesh, with_spatial(budget, alpha));
+        size_t n = c.mesh.triangle_count();
+        INFO(c.name << ", budget " << budget << ", alpha " << alpha << ": " << acc.reference_count()
+                    << " references for " << n << " triangles");
+        CHECK(acc.reference_count() > n);
+        // Pre-splitting's budget, then the builder's.
+        CHECK(acc.reference_count() <= n + 2 * size_t(double(budget) * double(n)));
+        int hits = 0;
+        CHECK(compare(c.mesh, acc, 1500, rng, &hits) == "");
+        CHECK(hits > 300);
+      }
+}
+
+TEST_CASE("spatial splits do not depend on the thread count", "[accel][sbvh]") {
+  // Large enough for the top subtrees to be built on threads of their own.
+  PCG32 rng(32, 0x5b1);
+  TriangleMesh m = random_long(30000, rng);
+  MeshAccel one(m, with_spatial(0.3f, BVHBuildOptions{}.spatial_alpha, 1));
+  CHECK(one.reference_count() > m.triangle_count());
+  for (int threads : {2, 3}) {
+    MeshAccel more(m, with_spatial(0.3f, BVHBuildOptions{}.spatial_alpha, threads));
+    INFO(threads << " threads");
+    REQUIRE(more.reference_count() == one.reference_count());
+    CHECK(layout_difference(more, one) == "");
+    bool same_map = true;
+    for (size_t k = 0; k < one.bvh().prims().size(); ++k) same_map &= one.leaf_triangle(k) == more.leaf_triangle(k);
+    CHECK(same_map);
+  }
+}
+
+TEST_CASE("spatial splits trace slivers through fewer boxes than pre-splitting", "[accel][sbvh]") {
+  // What the option is for: on long diagonal slivers the tree is better by
+  // the SAH measure that traversal pays, the expected boxes a ray crosses
+  // (the sum of the wide nodes' lane areas over the root's; a leaf lane
+  // counts once per packet it holds, for the triangle test). The spatial
+  // build must beat pre-splitting alone, and the references it adds must be
+  // the builder's: pre-splitting's are the same in both.
+  PCG32 rng(33, 0x5b1);
+  TriangleMesh m = random_long(20000, rng);
+  auto cost = [](const MeshAccel& a) {
+    double sum = 0;
+    for (const detail::BVHWideNode& n : a.bvh().wide_nodes())
+      for (int l = 0; l < detail::wide_width; ++l) {
+        if (n.count[l] == 0) continue;
+        double packets = n.count[l] == detail::BVHWideNode::interior
+                             ? 1
+                             : double((n.count[l] + triangle_packet_width - 1) / triangle_packet_width);
+        sum += packets * double(detail::lane_box(n, l).surface_area());
+      }
+    return sum / double(a.bounds().surface_area());
+  };
+  MeshAccel pre(m, with_budget(0.3f)), spatial(m, with_spatial(0.3f));
+  INFO("pre-split " << cost(pre) << " (" << pre.reference_count() << " references), spatial " << cost(spatial)
+                    << " (" << spatial.reference_count() << ")");
+  CHECK(spatial.reference_count() > pre.reference_count());
+  CHECK(cost(spatial) < cost(pre));
+}
+
+TEST_CASE("a MeshAccel with spatial splits after refit gives the hits of brute force", "[accel][sbvh][refit]") {
+  PCG32 rng(34, 0x5b1);
+  TriangleMesh m = random_long(1500, rng);
+  MeshAccel refitted(m, with_spatial(0.5f));
+  CHECK(refitted.reference_count() > m.triangle_count());
+  for (Point3f& p : m.positions) p = p + Vector3f{std::sin(p.y), 0.5f * std::cos(p.z), uniform(rng, -1, 1)};
+  refitted.refit(m);
+  int hits = 0;
+  CHECK(compare(m, refitted, 1500, rng, &hits) == "");
+  CHECK(hits > 300);
+}
+
+TEST_CASE("degenerate input builds with spatial splits", "[accel][sbvh]") {
+  PCG32 rng(35, 0x5b1);
+  Float nan = std::nanf("");
+  // Slivers with zero-area, NaN and infinite triangles among them, and a
+  // plane of triangles: built, the bad triangles never hit, the others as
+  // brute force finds them.
+  TriangleMesh m = random_long(600, rng);
+  for (int i = 0; i < 50; ++i) {
+    Point3f a{uniform(rng, -10, 10), uniform(rng, -10, 10), uniform(rng, -10, 10)};
+    add_tri(m, a, a + Vector3f{20, 0, 0}, a + Vector3f{10, 0, 0});  // zero area
+    add_tri(m, a, Point3f{nan, 0, 0}, a + Vector3f{1, 1, 0});
+    add_tri(m, a, Point3f{infinity, 0, 0}, a + Vector3f{0, 1, 1});
+  }
+  MeshAccel acc(m, with_spatial(0.5f, 0.0f));
+  int hits = 0;
+  CHECK(compare(m, acc, 1500, rng, &hits) == "");
+  CHECK(hits > 200);
+  // A million references of one triangle is the BVH tests' case; here 20,000
+  // copies of one sliver and a plane of slivers.
+  TriangleMesh copies;
+  for (int i = 0; i < 20000; ++i) add_tri(copies, {0, 0, 0}, {30, 20, 1}, {30.1f, 20, 1});
+  MeshAccel c(copies, with_spatial(0.5f, 0.0f));
+  CHECK(c.reference_count() >= copies.triangle_count());
+  Float t = infinity;
+  TriangleHit h{};
+  uint32_t tri = 0;
+  CHECK(c.intersect({15, 9.985f, -5}, {0, 0, 1}, &t, &h, &tri));  // (y from 9.967 to 10 at x = 15)
+  TriangleMesh plane;  // slivers in the plane z = 0.3 x + 0.2 y
+  auto on_plane = [](Float x, Float y) { return Point3f{x, y, 0.3f * x + 0.2f * y}; };
+  for (int i = 0; i < 2000; ++i) {
+    Float x = uniform(rng, -10, 10), y = uniform(rng, -10, 10);
+    add_tri(plane, on_plane(x, y), on_plane(x + uniform(rng, 5, 20), y + uniform(rng, 5, 20)), on_plane(x + 0.1f, y));
+  }
+  MeshAccel p(plane, with_spatial(0.5f, 0.0f));
+  hits = 0;
+  CHECK(compare(plane, p, 1000, rng, &hits) == "");
+  CHECK(hits > 100);
+}
+
+TEST_CASE("a negative or NaN spatial_alpha is refused", "[accel][sbvh]") {
+  PCG32 rng(36, 0x5b1);
+  TriangleMesh m = random_long(10, rng);
+  for (float alpha : {-1.0f, std::nanf(""), infinity}) CHECK_THROWS_AS(MeshAccel(m, with_spatial(0.3f, alpha)), Error);
+  CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_spatial(0.3f)));
+  CHECK_NOTHROW(MeshAccel(m, with_spatial(0.0f)));  // no budget: object splits only
+}
+
+TEST_CASE("BVH::from_binary_tree refuses what is not a tree", "[accel][sbvh]") {
+  auto leaf = [](uint32_t first, uint32_t count) {
+    BVHNode n{};
+    n.bmax[0] = n.bmax[1] = n.bmax[2] = 1;
+    n.offset = first;
+    n.count = count;
+    return n;
+  };
+  auto inner = [](uint32_t second) {
+    BVHNode n{};
+    n.bmax[0] = n.bmax[1] = n.bmax[2] = 1;
+    n.offset = second;
+    n.count = 0;
+    return n;
+  };
+  std::vector<uint32_t> prims{0, 1, 2};
+  // A good one: a root over two leaves.
+  BVH ok = BVH::from_binary_tree({inner(2), leaf(0, 2), leaf(2, 1)}, prims);
+  CHECK(ok.wide_node_count() == 1);
+  CHECK(ok.prims() == prims);
+  auto refused = [&](std::vector<BVHNode> nodes, const char* what) {
+    INFO(what);
+    CHECK_THROWS_AS(BVH::from_binary_tree(std::move(nodes), prims), Error);
+  };
+  refused({inner(7), leaf(0, 2), leaf(2, 1)}, "second child out of range");
+  refused({inner(1), leaf(0, 2)}, "both children the same node");
+  refused({inner(2), leaf(0, 2), leaf(2, 5)}, "a leaf past the primitives");
+  refused({inner(2), leaf(0, 2), leaf(2, 1), leaf(0, 1)}, "a node outside the tree");
+  refused({inner(2), inner(0), leaf(0, 1)}, "a cycle");
+  refused({inner(1)}, "first child past the end");
+  // A caterpillar: each inner node's first child a leaf, its second the next
+  // inner node. 70 levels are within traversal's stack, 100 are not.
+  auto caterpillar = [&](int levels) {
+    std::vector<BVHNode> t;
+    for (int i = 0; i < levels; ++i) {
+      t.push_back(inner(uint32_t(t.size()) + 2));
+      t.push_back(leaf(0, 1));
+    }
+    t.push_back(leaf(1, 1));
+    return t;
+  };
+  CHECK_NOTHROW(BVH::from_binary_tree(caterpillar(70), prims));
+  refused(caterpillar(100), "deeper than traversal's stack");
+}
+
+TEST_CASE("spatial-split references cover their triangles", "[accel][sbvh]") {
+  // Every reference box, from the builder's cuts on top of pre-splitting's,
+  // inside its triangle's box; every point sampled on a triangle (vertices,
+  // edges, inside) inside one of its references. alpha 0 and a large budget:
+  // many cuts, at every depth.
+  PCG32 rng(37, 0x5b1);
+  TriangleMesh m = random_long(1500, rng);
+  TriangleMesh fan = sliver_fan(600, rng);
+  TriangleMesh ground = ground_and_clutter(800, rng);
+  for (const TriangleMesh* mesh : {&m, &fan, &ground})
+    for (float budget : {0.0f, 0.3f, 3.0f}) {
+      size_t n = mesh->triangle_count();
+      auto vertices = [&](size_t i, Point3f* v) {
+        for (int k = 0; k < 3; ++k) v[k] = vtx(*mesh, uint32_t(i), k);
+      };
+      BVHBuildOptions o = with_spatial(3.0f, 0.0f, 1);
+      o.leaf_block = triangle_packet_width;
+      detail::SplitReferences pre = refs_of(*mesh, budget, 1);
+      detail::SpatialBVH s = detail::build_spatial_bvh(n, vertices, o, &pre, true);
+      INFO("pre-split budget " << budget << ": " << pre.size() << " references before the build, "
+                               << s.ref_box.size() << " after");
+      REQUIRE(s.ref_box.size() == s.ref_tri.size());
+      // The builder cut (the fan's whole wedges, all meeting at its centre,
+      // give no plane that pays by the SAH: it cuts them once pre-split).
+      if (mesh != &fan || budget > 0) CHECK(s.ref_box.size() > std::max(n, pre.size()));
+      Cover c = cover(*mesh, s.ref_box, s.ref_tri, rng);
+      CHECK(c.missing == 0);
+      CHECK(c.outside == 0);
+      CHECK(c.uncovered == 0);
+      // The references in leaf order are the BVH's, a triangle's first its own number.
+      REQUIRE(s.bvh.prims().size() >= s.ref_tri.size());
+      CHECK(s.extra_tri.size() == s.ref_tri.size() - n);
+    }
 }

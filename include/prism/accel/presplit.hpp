@@ -69,6 +69,20 @@ struct SplitReferences {
 // the result, at most n + 1 vertices, to out and returns their count (0:
 // empty). A vertex created on the plane gets the plane's coordinate exactly
 // and stays within its edge's extent on the other axes.
+// The point where edge pq crosses the plane `plane` on `axis` (p and q on
+// opposite sides of it): the plane's coordinate exactly, the others within
+// the edge's extent.
+inline Point3f plane_crossing(const Point3f& p, const Point3f& q, int axis, Float plane) {
+  Float t = (plane - p[axis]) / (q[axis] - p[axis]);
+  Point3f x;
+  for (int k = 0; k < 3; ++k) {
+    Float v = p[k] + t * (q[k] - p[k]);
+    x[k] = std::clamp(v, std::min(p[k], q[k]), std::max(p[k], q[k]));
+  }
+  x[axis] = plane;
+  return x;
+}
+
 inline int clip_polygon(const Point3f* in, int n, int axis, int side, Float plane, Point3f* out) {
   auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] <= plane : p[axis] >= plane; };
   int m = 0;
@@ -77,16 +91,7 @@ inline int clip_polygon(const Point3f* in, int n, int axis, int side, Float plan
     const Point3f& q = in[i + 1 == n ? 0 : i + 1];
     bool pi = inside(p), qi = inside(q);
     if (pi) out[m++] = p;
-    if (pi != qi) {
-      Float t = (plane - p[axis]) / (q[axis] - p[axis]);
-      Point3f x;
-      for (int k = 0; k < 3; ++k) {
-        Float v = p[k] + t * (q[k] - p[k]);
-        x[k] = std::clamp(v, std::min(p[k], q[k]), std::max(p[k], q[k]));
-      }
-      x[axis] = plane;
-      out[m++] = x;
-    }
+    if (pi != qi) out[m++] = plane_crossing(p, q, axis, plane);
   }
   return m;
 }

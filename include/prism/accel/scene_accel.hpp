@@ -16,6 +16,7 @@
 #include <vector>
 #include "prism/accel/bvh.hpp"
 #include "prism/accel/presplit.hpp"
+#include "prism/accel/sbvh.hpp"
 #include "prism/accel/triangle_packet.hpp"
 #include "prism/error.hpp"
 #include "prism/math/animated_transform.hpp"
@@ -63,24 +64,36 @@ class MeshAccel {
     opt.leaf_block = triangle_packet_width;
     m_threads = detail::build_threads(opt.threads);
     detail::check_split_options(opt.split_budget, opt.split_threshold);
-    detail::SplitReferences refs;
-    if (opt.split_budget != 0.0f) {
-      const Point3f* p = mesh.positions.data();
-      const uint32_t* idx = mesh.indices.data();
-      refs = detail::presplit_triangles(
-          n,
-          [&](size_t i, Point3f* v) {
-            v[0] = p[idx[3 * i]];
-            v[1] = p[idx[3 * i + 1]];
-            v[2] = p[idx[3 * i + 2]];
-          },
-          opt.split_budget, opt.split_threshold, m_threads);
-    }
-    if (refs.size() != 0) {
-      m_bvh = BVH::build(refs.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
-      m_extra_tri = std::move(refs.extra_tri);
+    const Point3f* p = mesh.positions.data();
+    const uint32_t* idx = mesh.indices.data();
+    auto vertices = [&](size_t i, Point3f* v) {
+      v[0] = p[idx[3 * i]];
+      v[1] = p[idx[3 * i + 1]];
+      v[2] = p[idx[3 * i + 2]];
+    };
+    if (opt.spatial_splits) {
+      if (!(opt.spatial_alpha >= 0) || !std::isfinite(opt.spatial_alpha))
+        throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " +
+                    std::to_string(opt.spatial_alpha));
+      // Pre-splitting first (the worst slivers cut everywhere, which the
+      // builder's greedy choice of planes does not do), then spatial splits
+      // where the SAH asks for them.
+      detail::SplitReferences pre;
+      if (opt.split_budget != 0.0f)
+        pre = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
+      detail::SpatialBVH sb = detail::build_spatial_bvh(n, vertices, opt, &pre);
+      m_bvh = std::move(sb.bvh);
+      m_extra_tri = std::move(sb.extra_tri);
     } else {
-      m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
+      detail::SplitReferences refs;
+      if (opt.split_budget != 0.0f)
+        refs = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
+      if (refs.size() != 0) {
+        m_bvh = BVH::build(refs.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
+        m_extra_tri = std::move(refs.extra_tri);
+      } else {
+        m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
+      }
     }
     m_triangles = n;
     size_t packets = m_bvh.prims().size() / triangle_packet_width;
