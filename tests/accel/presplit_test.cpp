@@ -564,11 +564,13 @@ TEST_CASE("MeshAccel with spatial splits finds the hits of brute force", "[accel
 }
 
 TEST_CASE("spatial splits do not depend on the thread count", "[accel][sbvh]") {
-  // Large enough for the top subtrees to be built on threads of their own.
+  // Large enough for the top subtrees to be built on threads of their own
+  // and the top nodes' passes to be cut into chunks (from 64K references).
   PCG32 rng(32, 0x5b1);
-  TriangleMesh m = random_long(30000, rng);
+  TriangleMesh m = random_long(52000, rng);
   MeshAccel one(m, with_spatial(0.3f, BVHBuildOptions{}.spatial_alpha, 1));
   CHECK(one.reference_count() > m.triangle_count());
+  CHECK(one.reference_count() >= 64 * 1024);
   for (int threads : {2, 3}) {
     MeshAccel more(m, with_spatial(0.3f, BVHBuildOptions{}.spatial_alpha, threads));
     INFO(threads << " threads");

@@ -173,9 +173,19 @@ class SpatialSplitBuilder {
     const uint32_t idx = uint32_t(t.nodes.size());
     t.nodes.emplace_back();
     Bounds3f bb, cb;
-    for (const Ref& r : refs) {
-      bb = union_bounds(bb, r.box);
-      cb = union_bounds(cb, r.box.centroid());
+    {
+      const size_t chunks = chunk_count(refs.size());
+      std::vector<Bounds3f> cbb(chunks), ccb(chunks);
+      parallel_items(chunks, m_threads, [&](size_t c) {
+        for (size_t i = refs.size() * c / chunks, e = refs.size() * (c + 1) / chunks; i < e; ++i) {
+          cbb[c] = union_bounds(cbb[c], refs[i].box);
+          ccb[c] = union_bounds(ccb[c], refs[i].box.centroid());
+        }
+      });
+      for (size_t c = 0; c < chunks; ++c) {
+        bb = union_bounds(bb, cbb[c]);
+        cb = union_bounds(cb, ccb[c]);
+      }
     }
     for (int a = 0; a < 3; ++a) {
       t.nodes[idx].bmin[a] = bb.min[a];
@@ -275,28 +285,86 @@ class SpatialSplitBuilder {
     return std::isfinite(k) ? k : 0;
   }
 
+  // Bins of a pass over references, summed over chunks in chunk order.
+  template <int Bins>
+  struct BinSet {
+    Bounds3f box[3][Bins];
+    size_t enter[3][Bins] = {}, exit[3][Bins] = {};
+    void add(const BinSet& o) {
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < Bins; ++b) {
+          box[a][b] = union_bounds(box[a][b], o.box[a][b]);
+          enter[a][b] += o.enter[a][b];
+          exit[a][b] += o.exit[a][b];
+        }
+    }
+  };
+  // fill(begin, end, bins) over refs: in one pass, or for a large node in a
+  // fixed number of chunks on the build's threads (the same result whatever
+  // their count: the chunks are merged in order).
+  // The chunks a pass over n references is cut into: a number that does
+  // not depend on the thread count, so that neither does the result.
+  size_t chunk_count(size_t n) const {
+    constexpr size_t chunk_min = 32 * 1024;
+    return m_threads > 1 && n >= 2 * chunk_min ? std::min<size_t>(8, n / chunk_min) : 1;
+  }
+  // route(r, left, right) appends reference r to one side or both, over
+  // chunks of refs, the sides concatenated in chunk order.
+  template <class Route>
+  void partition(const std::vector<Ref>& refs, Route&& route, std::vector<Ref>& left, std::vector<Ref>& right) const {
+    const size_t n = refs.size(), chunks = chunk_count(n);
+    if (chunks == 1) {
+      for (const Ref& r : refs) route(r, left, right);
+      return;
+    }
+    std::vector<std::vector<Ref>> l(chunks), r(chunks);
+    parallel_items(chunks, m_threads, [&](size_t c) {
+      for (size_t i = n * c / chunks, e = n * (c + 1) / chunks; i < e; ++i) route(refs[i], l[c], r[c]);
+    });
+    size_t nl = 0, nr = 0;
+    for (size_t c = 0; c < chunks; ++c) {
+      nl += l[c].size();
+      nr += r[c].size();
+    }
+    left.reserve(nl);
+    right.reserve(nr);
+    for (size_t c = 0; c < chunks; ++c) {
+      left.insert(left.end(), l[c].begin(), l[c].end());
+      right.insert(right.end(), r[c].begin(), r[c].end());
+    }
+  }
+  template <int Bins, class Fill>
+  BinSet<Bins> binned(size_t n, Fill&& fill) const {
+    const size_t chunks = chunk_count(n);
+    std::vector<BinSet<Bins>> part(chunks);
+    parallel_items(chunks, m_threads, [&](size_t c) { fill(n * c / chunks, n * (c + 1) / chunks, part[c]); });
+    for (size_t c = 1; c < chunks; ++c) part[0].add(part[c]);
+    return part[0];
+  }
+
   Split object_split(const std::vector<Ref>& refs, const Bounds3f& cb) const {
     Split best;
     Float k[3];
     bool any = false;
     for (int a = 0; a < 3; ++a) any |= (k[a] = bin_scale(cb, a)) != 0;
     if (!any) return best;
-    Bounds3f box[3][object_bins];
-    size_t cnt[3][object_bins] = {};
-    for (const Ref& r : refs) {
-      const Point3f c = r.box.centroid();
-      for (int a = 0; a < 3; ++a) {
-        int b = bin_of(c[a], cb.min[a], k[a]);
-        box[a][b] = union_bounds(box[a][b], r.box);
-        ++cnt[a][b];
+    BinSet<object_bins> bins = binned<object_bins>(refs.size(), [&](size_t begin, size_t end, auto& out) {
+      for (size_t i = begin; i < end; ++i) {
+        const Ref& r = refs[i];
+        const Point3f c = r.box.centroid();
+        for (int a = 0; a < 3; ++a) {
+          int b = bin_of(c[a], cb.min[a], k[a]);
+          out.box[a][b] = union_bounds(out.box[a][b], r.box);
+          ++out.enter[a][b];
+        }
       }
-    }
+    });
     for (int a = 0; a < 3; ++a)
-      if (k[a] != 0) sweep(box[a], cnt[a], object_bins, a, false, &best);
+      if (k[a] != 0) sweep(bins.box[a], bins.enter[a], object_bins, a, false, &best);
     if (best.axis >= 0)
       for (int b = 0; b < object_bins; ++b) {
         Bounds3f& side = b <= best.bin ? best.left : best.right;
-        side = union_bounds(side, box[best.axis][b]);
+        side = union_bounds(side, bins.box[best.axis][b]);
       }
     return best;
   }
@@ -334,8 +402,9 @@ class SpatialSplitBuilder {
   void object_partition(const std::vector<Ref>& refs, const Bounds3f& cb, const Split& s, std::vector<Ref>& left,
                         std::vector<Ref>& right) const {
     const Float k = bin_scale(cb, s.axis);
-    for (const Ref& r : refs)
-      (bin_of(r.box.centroid()[s.axis], cb.min[s.axis], k) <= s.bin ? left : right).push_back(r);
+    partition(refs, [&](const Ref& r, std::vector<Ref>& l, std::vector<Ref>& rr) {
+      (bin_of(r.box.centroid()[s.axis], cb.min[s.axis], k) <= s.bin ? l : rr).push_back(r);
+    }, left, right);
   }
 
   // Halves by centroid order on the widest centroid axis (no duplicates).
@@ -384,11 +453,14 @@ class SpatialSplitBuilder {
     }
     auto plane = [&](int a, int i) { return i == spatial_bins ? bb.max[a] : lo[a] + Float(i) * w[a]; };
     auto bin = [&](int a, Float x) { return std::clamp(int((x - lo[a]) / w[a]), 0, spatial_bins - 1); };
-    Bounds3f box[3][spatial_bins];
-    size_t enter[3][spatial_bins] = {}, exit[3][spatial_bins] = {};
+    BinSet<spatial_bins> bins = binned<spatial_bins>(n, [&](size_t begin, size_t end, auto& out) {
+    auto& box = out.box;
+    auto& enter = out.enter;
+    auto& exit = out.exit;
     constexpr int room = 40;  // polygon buffers; a split adds at most one vertex
     Point3f v[3], poly[9], buf[2][room + 2];
-    for (const Ref& r : refs) {
+    for (size_t ri = begin; ri < end; ++ri) {
+      const Ref& r = refs[ri];
       int b0[3] = {}, b1[3] = {};
       bool spans = false;
       for (int a = 0; a < 3; ++a) {
@@ -429,11 +501,12 @@ class SpatialSplitBuilder {
         }
       }
     }
+    });
     Split best;
     for (int a = 0; a < 3; ++a) {
       if (!active[a]) continue;
       Split s;
-      sweep(box[a], enter[a], spatial_bins, a, true, &s, exit[a], budget, n);
+      sweep(bins.box[a], bins.enter[a], spatial_bins, a, true, &s, bins.exit[a], budget, n);
       if (s.axis >= 0 && s.cost < best.cost) {
         best = s;
         best.plane = plane(a, s.bin + 1);
@@ -447,21 +520,21 @@ class SpatialSplitBuilder {
   void spatial_partition(const std::vector<Ref>& refs, const Split& s, std::vector<Ref>& left,
                          std::vector<Ref>& right) const {
     const int a = s.axis;
-    for (const Ref& r : refs) {
+    partition(refs, [&](const Ref& r, std::vector<Ref>& left_side, std::vector<Ref>& right_side) {
       if (r.box.max[a] <= s.plane) {
-        left.push_back(r);
+        left_side.push_back(r);
       } else if (r.box.min[a] >= s.plane) {
-        right.push_back(r);
+        right_side.push_back(r);
       } else {
         Bounds3f lh = r.box, rh = r.box, lbox, rbox;
         lh.max[a] = s.plane;
         rh.min[a] = s.plane;
         bool l = clipped_box(r.tri, lh, &lbox), rr = clipped_box(r.tri, rh, &rbox);
-        if (l) left.push_back({lbox, r.tri});
-        if (rr) right.push_back({rbox, r.tri});
-        if (!l && !rr) left.push_back(r);  // (cannot happen: the box holds part of the triangle)
+        if (l) left_side.push_back({lbox, r.tri});
+        if (rr) right_side.push_back({rbox, r.tri});
+        if (!l && !rr) left_side.push_back(r);  // (cannot happen: the box holds part of the triangle)
       }
-    }
+    }, left, right);
     // A side left empty (every part on one side): fall back to halving.
     if (left.empty() || right.empty()) {
       std::vector<Ref> all = left.empty() ? std::move(right) : std::move(left);
