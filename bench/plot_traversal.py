@@ -39,7 +39,7 @@ top = max(1.3, max(max(v.values()) for v in ratios.values()) * 1.1)
 script = f"""
 set terminal pngcairo size 1100,{220 + 24 * len(order)} font ",10"
 set output "{out}"
-set title "prism / Embree 3.13.5: speed ratio per case (builds: Embree time / prism time; rays: Mrays/s)\\nprocedural and spheres 1M triangles, slivers 463k; slivers nosplit: prism without pre-splitting; slivers hq: Embree at its high build quality (spatial splits)"
+set title "prism / Embree 3.13.5: speed ratio per case (builds: Embree time / prism time; rays: Mrays/s)\\nprocedural and spheres 1M triangles, slivers 463k; slivers nosplit: prism without pre-splitting\\nslivers hq: Embree at its high build quality (spatial splits); slivers sbvh: the same against prism with spatial splits"
 set style data histograms
 set style histogram clustered gap 1
 set style fill solid 0.8 border -1

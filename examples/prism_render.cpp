@@ -137,6 +137,7 @@ struct Job {
   bool colour_auto = false;       // neither --rgb nor --spectral: the scene decides
   std::string default_scene = "cornell";
   float split_budget = prism::BVHBuildOptions{}.split_budget;  // --split-budget: BVHBuildOptions::split_budget
+  bool spatial_splits = false;    // --spatial-splits: BVHBuildOptions::spatial_splits
   std::string instantiation;      // the summary's instantiation line
 };
 
@@ -299,6 +300,7 @@ int run_default(const Job& job, const char* model, const prism::CornellBoxOption
     scene.set_light_selection(light_selection(job.light_sampler));
     BVHBuildOptions bo;
     bo.split_budget = job.split_budget;
+    bo.spatial_splits = job.spatial_splits;
     scene.build(bo);
     DefaultSceneDesc desc;
     desc.lens_radius = job.aperture;
@@ -331,6 +333,7 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
     g.scene.set_light_selection(light_selection(job.light_sampler));
     BVHBuildOptions bo;
     bo.split_budget = job.split_budget;
+    bo.spatial_splits = job.spatial_splits;
     g.scene.build(bo);
   } catch (const Error& e) {
     return fail(e.what());
@@ -492,6 +495,9 @@ int run(int argc, char** argv) {
                  "Triangle pre-splitting: extra BVH references as a fraction of the triangles, spent on long "
                  "thin or large diagonal slivers only (0: off; default 0.3; docs/performance.md)")
       ->check(CLI::Range(0.f, 16.f));
+  app.add_flag("--spatial-splits", job.spatial_splits,
+               "Spatial splits in the BVH builder too (SBVH, after pre-splitting): a slower build, faster rays "
+               "on scenes of overlapping slivers (docs/performance.md)");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)
   // Threads per rank by default: the node's cores shared among its ranks.

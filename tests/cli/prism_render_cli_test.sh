@@ -145,5 +145,11 @@ check_inst "rgb, bxdfs {metal_rough} (metal_rough)" "$disp" --rgb --out "$tmp/in
 cmp -s "$tmp/inst_min.pfm" "$tmp/inst_full.pfm" || { echo "FAIL: minimal and full differ on the diffuse box"; fails=$((fails+1)); }
 cmp -s "$tmp/inst_tri.pfm" "$tmp/inst_tri_full.pfm" || { echo "FAIL: metal_rough and full differ on a glTF file"; fails=$((fails+1)); }
 
+# Spatial splits change the BVH, not what a ray hits: the same image.
+out=$("$bin" --width 16 --height 16 --spp 2 --rgb --quiet --spatial-splits --out "$tmp/sbvh.pfm" 2>/dev/null); rc=$?
+if [ "$rc" != 0 ] || ! cmp -s "$tmp/sbvh.pfm" "$tmp/still_a.pfm"; then
+  echo "FAIL: --spatial-splits did not render the image without them ($rc): $out"; fails=$((fails+1))
+else echo "ok: --spatial-splits renders the same image"; fi
+
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

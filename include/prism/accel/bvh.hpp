@@ -113,9 +113,10 @@ struct BVHBuildOptions {
   // split's two boxes overlap by more than spatial_alpha times the root's
   // surface area, a plane across the node's box that cuts the references it
   // crosses, where the SAH prefers it. It may add up to split_budget times
-  // the triangle count references on top of pre-splitting's. The build takes
-  // about 3 to 4 times as long; on traversal_bench's sliver scene rays trace
-  // 1.3 to 1.6 times as fast (docs/performance.md). Off by default.
+  // the triangle count references on top of pre-splitting's. On
+  // traversal_bench's sliver scene the build takes about 5 times as long and
+  // rays trace 1.25 to 1.35 times as fast (docs/performance.md). Off by
+  // default.
   bool spatial_splits = false;
   float spatial_alpha = 1e-3f;
   // Keep the binary tree that the wide traversal layout is derived from

@@ -452,7 +452,11 @@ class SpatialSplitBuilder {
       active[a] = w[a] > 0 && std::isfinite(w[a]);
     }
     auto plane = [&](int a, int i) { return i == spatial_bins ? bb.max[a] : lo[a] + Float(i) * w[a]; };
-    auto bin = [&](int a, Float x) { return std::clamp(int((x - lo[a]) / w[a]), 0, spatial_bins - 1); };
+    // (A NaN coordinate, which the node's finite box can hide, in bin 0.)
+    auto bin = [&](int a, Float x) {
+      Float f = (x - lo[a]) / w[a];
+      return f >= 1 ? int(std::min(f, Float(spatial_bins - 1))) : 0;
+    };
     BinSet<spatial_bins> bins = binned<spatial_bins>(n, [&](size_t begin, size_t end, auto& out) {
     auto& box = out.box;
     auto& enter = out.enter;
@@ -521,10 +525,8 @@ class SpatialSplitBuilder {
                          std::vector<Ref>& right) const {
     const int a = s.axis;
     partition(refs, [&](const Ref& r, std::vector<Ref>& left_side, std::vector<Ref>& right_side) {
-      if (r.box.max[a] <= s.plane) {
-        left_side.push_back(r);
-      } else if (r.box.min[a] >= s.plane) {
-        right_side.push_back(r);
+      if (!(r.box.min[a] < s.plane && r.box.max[a] > s.plane)) {  // one side (a NaN box: the left)
+        (r.box.max[a] <= s.plane || !(r.box.min[a] >= s.plane) ? left_side : right_side).push_back(r);
       } else {
         Bounds3f lh = r.box, rh = r.box, lbox, rbox;
         lh.max[a] = s.plane;
