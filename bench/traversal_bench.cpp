@@ -60,6 +60,7 @@
 #include <vector>
 
 #include "procedural_mesh.hpp"
+#include "prism/accel/sbvh.hpp"
 #include "prism/accel/scene_accel.hpp"
 #include "prism/math/frame.hpp"
 #include "prism/sampling/pcg32.hpp"

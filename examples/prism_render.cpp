@@ -15,6 +15,7 @@
 #include <vector>
 #include <CLI/CLI.hpp>
 #include <prism/prism.hpp>
+#include <prism/accel/sbvh.hpp>  // --spatial-splits
 #include <prism/io/gltf.hpp>
 #include <prism/io/image_io.hpp>
 #if defined(PRISM_HAS_MPI)

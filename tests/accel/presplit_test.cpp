@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "prism/accel/sbvh.hpp"
 #include "prism/accel/scene_accel.hpp"
 #include "prism/sampling/pcg32.hpp"
 
@@ -667,6 +668,12 @@ TEST_CASE("a negative or NaN spatial_alpha is refused", "[accel][sbvh]") {
   for (float alpha : {-1.0f, std::nanf(""), infinity}) CHECK_THROWS_AS(MeshAccel(m, with_spatial(0.3f, alpha)), Error);
   CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_spatial(0.3f)));
   CHECK_NOTHROW(MeshAccel(m, with_spatial(0.0f)));  // no budget: object splits only
+  // Without accel/sbvh.hpp in the program there is no builder to call.
+  detail::SpatialBuildFn saved = detail::spatial_build_hook();
+  detail::spatial_build_hook() = nullptr;
+  CHECK_THROWS_AS(MeshAccel(m, with_spatial(0.3f)), Error);
+  detail::spatial_build_hook() = saved;
+  CHECK_NOTHROW(MeshAccel(m, with_spatial(0.3f)));
 }
 
 TEST_CASE("BVH::from_binary_tree refuses what is not a tree", "[accel][sbvh]") {

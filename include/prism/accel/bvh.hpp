@@ -109,10 +109,11 @@ struct BVHBuildOptions {
   float split_budget = 0.3f;
   float split_threshold = 32;
   // Triangle meshes (MeshAccel): after pre-splitting, spatial splits inside
-  // the builder too (accel/sbvh.hpp, SBVH): at nodes where the best object
-  // split's two boxes overlap by more than spatial_alpha times the root's
-  // surface area, a plane across the node's box that cuts the references it
-  // crosses, where the SAH prefers it. It may add up to split_budget times
+  // the builder too (SBVH; the program includes prism/accel/sbvh.hpp, which
+  // holds the builder, or this is refused with prism::Error): at nodes where
+  // the best object split's two boxes overlap by more than spatial_alpha
+  // times the root's surface area, a plane across the node's box that cuts
+  // the references it crosses, where the SAH prefers it. It may add up to split_budget times
   // the triangle count references on top of pre-splitting's. On
   // traversal_bench's sliver scene the build takes about 5 times as long and
   // rays trace 1.25 to 1.35 times as fast (docs/performance.md). Off by

@@ -254,6 +254,27 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
   split_triangle(a, b, c, t, extra, out_bounds, out_tri, stack, max_vertices);
 }
 
+// A mesh BVH built with spatial splits (accel/sbvh.hpp): the BVH over
+// references, and for reference n + j (n the triangle count) its triangle
+// extra_tri[j]; reference k < n is triangle k.
+struct SpatialBVH {
+  BVH bvh;
+  std::vector<uint32_t> extra_tri;
+  // With keep_reference_boxes: each reference's box and triangle, in leaf
+  // order (for tests: they must cover the triangles).
+  std::vector<Bounds3f> ref_box;
+  std::vector<uint32_t> ref_tri;
+};
+// The spatial-split builder for MeshAccel: n triangles from positions and
+// indices, options, pre-split references to start from (or none). Null
+// until accel/sbvh.hpp is included somewhere in the program.
+using SpatialBuildFn = SpatialBVH (*)(size_t, const Point3f*, const uint32_t*, const BVHBuildOptions&,
+                                      const SplitReferences*);
+inline SpatialBuildFn& spatial_build_hook() {
+  static SpatialBuildFn fn = nullptr;
+  return fn;
+}
+
 // Throws prism::Error unless the budget is finite and >= 0 and the threshold
 // finite and >= 1 (checked whether or not splitting is on).
 inline void check_split_options(float budget, float threshold) {

@@ -31,6 +31,13 @@
 // own threads; slower than BVH::build (it bins boxes of clipped triangles),
 // it pays where a scene is traced long enough: docs/performance.md has the
 // measurements.
+//
+// MeshAccel reaches the builder through detail::spatial_build_hook(), which
+// this header sets, so a program that asks for spatial splits includes it.
+// Neither scene_accel.hpp nor prism/prism.hpp does: every translation unit
+// that builds a scene would compile the builder, about 15% more compile time
+// for a feature that is off by default. Without it, spatial_splits is
+// refused with an error that names this header.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -43,17 +50,6 @@
 
 namespace prism {
 namespace detail {
-
-// The result: the BVH over references, and for reference n + j (n the
-// triangle count) its triangle extra_tri[j]; reference k < n is triangle k.
-struct SpatialBVH {
-  BVH bvh;
-  std::vector<uint32_t> extra_tri;
-  // With keep_reference_boxes: each reference's box and triangle, in leaf
-  // order (for tests: they must cover the triangles).
-  std::vector<Bounds3f> ref_box;
-  std::vector<uint32_t> ref_tri;
-};
 
 template <class Vertices>
 class SpatialSplitBuilder {
@@ -562,6 +558,19 @@ SpatialBVH build_spatial_bvh(size_t n, Vertices&& vertices, const BVHBuildOption
   SpatialSplitBuilder<std::remove_reference_t<Vertices>> b(vertices, opt);
   return b.build(n, start, keep_reference_boxes);
 }
+
+// MeshAccel's entry (spatial_build_hook): a mesh's positions and indices.
+inline SpatialBVH build_spatial_mesh_bvh(size_t n, const Point3f* p, const uint32_t* idx, const BVHBuildOptions& opt,
+                                         const SplitReferences* start) {
+  auto vertices = [p, idx](size_t i, Point3f* v) {
+    v[0] = p[idx[3 * i]];
+    v[1] = p[idx[3 * i + 1]];
+    v[2] = p[idx[3 * i + 2]];
+  };
+  return build_spatial_bvh(n, vertices, opt, start);
+}
+// Set when this header is in the program, before main.
+inline const bool spatial_build_registered = (spatial_build_hook() = &build_spatial_mesh_bvh, true);
 
 }  // namespace detail
 }  // namespace prism

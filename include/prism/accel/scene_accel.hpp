@@ -16,7 +16,6 @@
 #include <vector>
 #include "prism/accel/bvh.hpp"
 #include "prism/accel/presplit.hpp"
-#include "prism/accel/sbvh.hpp"
 #include "prism/accel/triangle_packet.hpp"
 #include "prism/error.hpp"
 #include "prism/math/animated_transform.hpp"
@@ -81,7 +80,10 @@ class MeshAccel {
       detail::SplitReferences pre;
       if (opt.split_budget != 0.0f)
         pre = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
-      detail::SpatialBVH sb = detail::build_spatial_bvh(n, vertices, opt, &pre);
+      detail::SpatialBuildFn spatial = detail::spatial_build_hook();
+      if (!spatial)
+        throw Error("BVHBuildOptions::spatial_splits: include prism/accel/sbvh.hpp, which holds the builder");
+      detail::SpatialBVH sb = spatial(n, p, idx, opt, &pre);
       m_bvh = std::move(sb.bvh);
       m_extra_tri = std::move(sb.extra_tri);
     } else {
