@@ -641,9 +641,10 @@ struct WideRayPrecomp {
 // triangle test's t (a hit computed before t_max is never culled).
 #if defined(PRISM_BVH_SSE)
 // `inside`, if given, gets the lanes entered as a vector, each lane all ones
-// or all zeros (the mask's bits). Every build with lane vectors writes it;
-// only the AVX2 ordering of 8-wide nodes reads it (push_by_distance), which
-// then need not rebuild it from the mask.
+// or all zeros (the mask's bits). It is written when given, and
+// slab_lane_groups gives it only when a node's lanes fill one register; only
+// the AVX2 ordering of 8-wide nodes reads it (push_by_distance), which then
+// need not rebuild it from the mask.
 // Every lane's entry distance, entered or not, is >= +0 (sign bit clear):
 // t0 starts at +0 and a NaN plane distance never wins the max.
 inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r, Float t_cull, Float* t_entry,
