@@ -64,11 +64,6 @@ struct SplitReferences {
   uint32_t triangle(size_t k) const { return k < triangles() ? uint32_t(k) : extra_tri[k - triangles()]; }
 };
 
-// Clips the convex polygon in[0..n) to the closed half-space of the plane
-// `plane` on `axis` (side 0: coordinates <= plane, side 1: >= plane); writes
-// the result, at most n + 1 vertices, to out and returns their count (0:
-// empty). A vertex created on the plane gets the plane's coordinate exactly
-// and stays within its edge's extent on the other axes.
 // The point where edge pq crosses the plane `plane` on `axis` (p and q on
 // opposite sides of it): the plane's coordinate exactly, the others within
 // the edge's extent.
@@ -83,6 +78,11 @@ inline Point3f plane_crossing(const Point3f& p, const Point3f& q, int axis, Floa
   return x;
 }
 
+// Clips the convex polygon in[0..n) to the closed half-space of the plane
+// `plane` on `axis` (side 0: coordinates <= plane, side 1: >= plane); writes
+// the result, at most n + 1 vertices, to out and returns their count (0:
+// empty). A vertex created on the plane gets the plane's coordinate exactly
+// and stays within its edge's extent on the other axes.
 inline int clip_polygon(const Point3f* in, int n, int axis, int side, Float plane, Point3f* out) {
   auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] <= plane : p[axis] >= plane; };
   int m = 0;

@@ -70,32 +70,30 @@ class MeshAccel {
       v[1] = p[idx[3 * i + 1]];
       v[2] = p[idx[3 * i + 2]];
     };
+    detail::SpatialBuildFn spatial = nullptr;
     if (opt.spatial_splits) {
       if (!(opt.spatial_alpha >= 0) || !std::isfinite(opt.spatial_alpha))
         throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " +
                     std::to_string(opt.spatial_alpha));
-      // Pre-splitting first (the worst slivers cut everywhere, which the
-      // builder's greedy choice of planes does not do), then spatial splits
-      // where the SAH asks for them.
-      detail::SplitReferences pre;
-      if (opt.split_budget != 0.0f)
-        pre = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
-      detail::SpatialBuildFn spatial = detail::spatial_build_hook();
+      spatial = detail::spatial_build_hook();
       if (!spatial)
         throw Error("BVHBuildOptions::spatial_splits: include prism/accel/sbvh.hpp, which holds the builder");
-      detail::SpatialBVH sb = spatial(n, p, idx, opt, &pre);
+    }
+    // Pre-splitting first; with spatial splits the builder then cuts where
+    // the SAH asks for it (pre-splitting cuts the worst slivers everywhere,
+    // which the builder's greedy choice of planes does not do).
+    detail::SplitReferences refs;
+    if (opt.split_budget != 0.0f)
+      refs = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
+    if (spatial) {
+      detail::SpatialBVH sb = spatial(n, p, idx, opt, &refs);
       m_bvh = std::move(sb.bvh);
       m_extra_tri = std::move(sb.extra_tri);
+    } else if (refs.size() != 0) {
+      m_bvh = BVH::build(refs.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
+      m_extra_tri = std::move(refs.extra_tri);
     } else {
-      detail::SplitReferences refs;
-      if (opt.split_budget != 0.0f)
-        refs = detail::presplit_triangles(n, vertices, opt.split_budget, opt.split_threshold, m_threads);
-      if (refs.size() != 0) {
-        m_bvh = BVH::build(refs.size(), [&](size_t i) { return refs.bounds[i]; }, opt);
-        m_extra_tri = std::move(refs.extra_tri);
-      } else {
-        m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
-      }
+      m_bvh = BVH::build(n, detail::triangle_bounds(mesh), opt);
     }
     m_triangles = n;
     size_t packets = m_bvh.prims().size() / triangle_packet_width;
