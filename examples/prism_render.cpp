@@ -498,7 +498,8 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(0.f, 16.f));
   app.add_flag("--spatial-splits", job.spatial_splits,
                "Spatial splits in the BVH builder too (SBVH, after pre-splitting): a slower build, faster rays "
-               "on scenes of overlapping slivers (docs/performance.md)");
+               "on scenes of overlapping slivers. They spend --split-budget's references as well, so need a "
+               "budget above 0 (docs/performance.md)");
   app.add_flag("--quiet,-q", job.quiet, "No progress bar");
 #if defined(PRISM_HAS_MPI)
   // Threads per rank by default: the node's cores shared among its ranks.

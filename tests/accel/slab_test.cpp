@@ -331,6 +331,46 @@ TEST_CASE("the wide box test enters boxes met at subnormal distances", "[accel][
   CHECK(culled == 0);
 }
 
+TEST_CASE("the wide box test's slack is the one it documents, no more", "[accel][bvh][slab]") {
+  // From o = 0 along d = (1, 1, 1) every slab distance is exact (inv = 1,
+  // c = o inv = 0 up to its subnormal slack), so a box's computed entry E and
+  // exit X are its planes. The box spans [0, X] on x and starts at E on y:
+  // the exact ray misses it for E > X, and the test enters it exactly when E
+  // is within the slack the comment on WideRayPrecomp proves enough. The
+  // directed-FMA path raises X by five ulps; the exact form enters up to
+  // widen_exit(X). Here that boundary is hit on both sides, so a slack cut
+  // below the proof's (culling met boxes elsewhere) or widened past it fails.
+  int cases = 0;
+  for (Float x : {1.0f, 3.7f, 1e-20f, 6.5e12f, 0x1p-100f}) {
+    detail::WideRayPrecomp r(Point3f(0, 0, 0), Vector3f(1, 1, 1));
+#if defined(PRISM_BVH_FMA_SLABS)
+    REQUIRE(r.fast);
+    const Float last = std::bit_cast<Float>(std::bit_cast<uint32_t>(x) + 5);
+#else
+    REQUIRE(!r.fast);
+    const Float last = detail::widen_exit(x);
+#endif
+    const Float first_out = std::nextafter(last, infinity);
+    for (int lane = 0; lane < W; ++lane)
+      for (Float e : {last, first_out}) {
+        Bounds3f box[W];
+        for (int l = 0; l < W; ++l) box[l] = Bounds3f(Point3f(0, 0, 0), Point3f(1e30f, 1e30f, 1e30f));
+        box[lane].min = Point3f(0, e, 0);
+        box[lane].max = Point3f(x, 2 * e, 2 * e);
+        detail::BVHFloatWideNode node;
+        detail::set_boxes(node, box, W);
+        alignas(32) Float t_entry[W];
+        const int mask = detail::intersect_wide(node, r, infinity, t_entry);
+        INFO("exit " << x << ", entry " << e << " (" << (e == last ? "last entered" : "first culled") << "), lane "
+                     << lane);
+        CHECK(bool(mask >> lane & 1) == (e == last));
+        CHECK((mask | (1 << lane)) == (1 << W) - 1);  // the other lanes, boxes around the ray, entered
+        ++cases;
+      }
+  }
+  CHECK(cases == 10 * W);
+}
+
 #endif
 
 // The ordering of closest-hit traversal for three or more entered lanes

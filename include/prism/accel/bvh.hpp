@@ -1030,13 +1030,14 @@ class BVH {
   // [offset, offset + count) of leaf_prims), leaf_prims the primitive numbers
   // in leaf order. opt.leaf_block and keep_binary_tree apply as in build().
   // Throws prism::Error if the tree is not one: an index out of range, a
-  // node reached twice or never, or a depth beyond what traversal's stack
-  // holds (Builder::max_sah_depth + 32).
+  // node reached twice or never, an entry in two leaves or in none, a depth
+  // beyond what traversal's stack holds (Builder::max_sah_depth + 32), or
+  // leaves that padded to blocks hold more than 2^32 - 1 entries.
   static BVH from_binary_tree(std::vector<BVHNode> nodes, std::span<const uint32_t> leaf_prims,
                               const BVHBuildOptions& opt = {}) {
     BVH bvh;
     if (nodes.empty()) return bvh;
-    check_tree(nodes, leaf_prims.size());
+    check_tree(nodes, leaf_prims.size(), uint32_t(std::max(1, opt.leaf_block)));
     int threads = detail::build_threads(opt.threads);
     bvh.m_nodes = std::move(nodes);
     if (opt.leaf_block > 1) {
@@ -1693,10 +1694,11 @@ class BVH {
   };
 
   // from_binary_tree's check (see there).
-  static void check_tree(const std::vector<BVHNode>& nodes, size_t prims) {
+  static void check_tree(const std::vector<BVHNode>& nodes, size_t prims, uint32_t block) {
     constexpr int max_depth = Builder::max_sah_depth + 32;
     auto fail = [](const std::string& what) { throw Error("BVH::from_binary_tree: " + what); };
-    std::vector<uint8_t> seen(nodes.size(), 0);
+    std::vector<uint8_t> seen(nodes.size(), 0), used(prims, 0);
+    uint64_t padded = 0;  // the entries after pad_leaves, numbered in 32 bits
     std::vector<std::pair<uint32_t, int>> stack{{0u, 0}};
     size_t reached = 0;
     while (!stack.empty()) {
@@ -1711,12 +1713,20 @@ class BVH {
       if (nd.is_leaf()) {
         if (uint64_t(nd.offset) + nd.count > prims)
           fail("leaf " + std::to_string(i) + " covers entries past the " + std::to_string(prims) + " given");
+        for (uint64_t k = nd.offset; k < uint64_t(nd.offset) + nd.count; ++k) {
+          if (used[k]) fail("entry " + std::to_string(k) + " is in two leaves (the second: node " + std::to_string(i) + ")");
+          used[k] = 1;
+        }
+        padded += (uint64_t(nd.count) + block - 1) / block * block;
+        if (padded > UINT32_MAX) fail("the leaves padded to blocks of " + std::to_string(block) + " hold more than 2^32 - 1 entries");
         continue;
       }
       stack.push_back({nd.offset, depth + 1});
       stack.push_back({i + 1, depth + 1});
     }
     if (reached != nodes.size()) fail(std::to_string(nodes.size() - reached) + " nodes are not in the tree");
+    const size_t unused = size_t(std::count(used.begin(), used.end(), uint8_t(0)));
+    if (unused != 0) fail(std::to_string(unused) + " of the " + std::to_string(prims) + " entries are in no leaf");
   }
 
   // Lays out prims() with every leaf starting at a multiple of `block` and

@@ -83,6 +83,14 @@ inline Point3f plane_crossing(const Point3f& p, const Point3f& q, int axis, Floa
 // the result, at most n + 1 vertices, to out and returns their count (0:
 // empty). A vertex created on the plane gets the plane's coordinate exactly
 // and stays within its edge's extent on the other axes.
+//
+// "At most n + 1" holds for the rounded polygons too, which need not be
+// convex. What it needs is that along the polygon each coordinate rises and
+// falls once at most (cyclically), so that the vertices inside form one run
+// and the boundary is crossed twice at most. A triangle has that property,
+// and clipping keeps it: a new vertex lies between its edge's ends on every
+// axis (the clamp in plane_crossing), and dropping vertices cannot add a
+// turn. So clip_triangle_to_box returns at most 9 vertices.
 inline int clip_polygon(const Point3f* in, int n, int axis, int side, Float plane, Point3f* out) {
   auto inside = [&](const Point3f& p) { return side == 0 ? p[axis] <= plane : p[axis] >= plane; };
   int m = 0;
@@ -254,6 +262,17 @@ inline void split_triangle(const Point3f& a, const Point3f& b, const Point3f& c,
   split_triangle(a, b, c, t, extra, out_bounds, out_tri, stack, max_vertices);
 }
 
+// The vertex fetch that presplit_triangles and the spatial-split builder
+// take, for a mesh's positions p and indices idx (three per triangle):
+// writes triangle i's vertices to v[0..2].
+inline auto mesh_vertices(const Point3f* p, const uint32_t* idx) {
+  return [p, idx](size_t i, Point3f* v) {
+    v[0] = p[idx[3 * i]];
+    v[1] = p[idx[3 * i + 1]];
+    v[2] = p[idx[3 * i + 2]];
+  };
+}
+
 // A mesh BVH built with spatial splits (accel/sbvh.hpp): the BVH over
 // references, and for reference n + j (n the triangle count) its triangle
 // extra_tri[j]; reference k < n is triangle k.
@@ -287,10 +306,13 @@ inline void check_split_options(float budget, float threshold) {
 template <class Vertices>
 SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, float threshold, int threads) {
   check_split_options(budget, threshold);
-  const uint64_t total = uint64_t(double(budget) * double(n));
-  if (double(n) + double(total) > double(UINT32_MAX))
+  // Compared in double before any conversion: a budget times n beyond 2^64
+  // would make the conversion undefined.
+  const double asked = std::floor(double(budget) * double(n));
+  if (double(n) + asked > double(UINT32_MAX))
     throw Error("BVHBuildOptions::split_budget " + std::to_string(budget) + " asks for " +
-                std::to_string(double(n) + double(total)) + " references, more than 2^32 - 1");
+                std::to_string(double(n) + asked) + " references, more than 2^32 - 1");
+  const uint64_t total = uint64_t(asked);
   if (total == 0) return {};
   // The candidates (triangle, priority, cap), chunk by chunk in triangle order.
   struct Candidate {

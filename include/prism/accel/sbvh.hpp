@@ -63,6 +63,10 @@ class SpatialSplitBuilder {
   // each triangle, as presplit_triangles makes them).
   SpatialBVH build(size_t n, const SplitReferences* start = nullptr, bool keep_reference_boxes = false) {
     SpatialBVH out;
+    check_split_options(m_opt.split_budget, m_opt.split_threshold);
+    if (!(m_opt.spatial_alpha >= 0) || !std::isfinite(m_opt.spatial_alpha))
+      throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " +
+                  std::to_string(m_opt.spatial_alpha));
     if (n == 0) return out;
     if (n > size_t(UINT32_MAX) / 2) throw Error("spatial splits: too many triangles (" + std::to_string(n) + ")");
     std::vector<Ref> refs;
@@ -82,10 +86,18 @@ class SpatialSplitBuilder {
         root = union_bounds(root, refs[i].box);
       }
     }
+    // References are numbered in 32 bits with room to spare (as BVH::build's
+    // primitives): the start and the budget stay within 2^31 - 1. The budget
+    // is capped in double, before its conversion (undefined past 2^64).
+    constexpr size_t max_refs = size_t(UINT32_MAX) / 2;
+    if (refs.size() > max_refs)
+      throw Error("spatial splits: " + std::to_string(refs.size()) + " references to start from, more than " +
+                  std::to_string(max_refs));
+    const double asked = std::floor(double(m_opt.split_budget) * double(n));
+    const double room = double(max_refs - refs.size());
+    uint64_t budget = asked >= room ? uint64_t(room) : asked > 0 ? uint64_t(asked) : 0;
     m_root_area = root.surface_area();
     m_threads = build_threads(m_opt.threads);
-    uint64_t budget = uint64_t(double(m_opt.split_budget) * double(n));
-    budget = std::min<uint64_t>(budget, uint64_t(UINT32_MAX) / 2 - refs.size());
     Subtree t;
     node(std::move(refs), 0, budget, t, m_threads > 1 ? 3 : 0);
     // Leaf entries to reference numbers: a triangle's first entry (in leaf
@@ -141,7 +153,7 @@ class SpatialSplitBuilder {
       grown.min[a] -= 5 * h[a];
       grown.max[a] += 5 * h[a];
     }
-    Point3f poly[9];
+    Point3f poly[16];
     int m = clip_triangle_to_box(v[0], v[1], v[2], grown, poly);
     if (m == 0) return false;
     Bounds3f r;
@@ -202,6 +214,7 @@ class SpatialSplitBuilder {
     std::vector<Ref> left, right;
     Split best;
     if (depth < max_depth) best = object_split(refs, cb);
+    const Split object = best;
     const Float area = bb.surface_area();
     if (depth < max_depth && budget > 0 && best.axis >= 0 && all_finite(bb)) {
       // The overlap of the object split's two boxes.
@@ -224,10 +237,14 @@ class SpatialSplitBuilder {
       median_split(refs, cb, left, right);
     } else {
       if (n <= max_leaf && leaf_cost <= split_cost) return make_leaf();
-      if (best.spatial)
-        spatial_partition(refs, best, left, right);
-      else
-        object_partition(refs, cb, best, left, right);
+      if (best.spatial) spatial_partition(refs, best, left, right);
+      // The binned counts can differ from the cut's by references whose box
+      // ends within rounding of the plane: past the budget, the object split.
+      if (best.spatial && left.size() + right.size() - n > budget) {
+        left.clear();
+        right.clear();
+      }
+      if (left.empty() && right.empty()) object_partition(refs, cb, object, left, right);
     }
     refs = {};
     // The budget left, shared in proportion to the children's references.
@@ -408,9 +425,14 @@ class SpatialSplitBuilder {
                            std::vector<Ref>& right) {
     int a = cb.max_extent();
     auto mid = refs.begin() + std::ptrdiff_t(refs.size() / 2);
+    // A strict weak order also with NaN centroids (after every number), as
+    // nth_element needs.
     std::nth_element(refs.begin(), mid, refs.end(), [a](const Ref& x, const Ref& y) {
-      Float cx = x.box.centroid()[a], cy = y.box.centroid()[a];
-      return cx < cy || (cx == cy && x.tri < y.tri);
+      const Float cx = x.box.centroid()[a], cy = y.box.centroid()[a];
+      const bool nx = std::isnan(cx), ny = std::isnan(cy);
+      if (nx != ny) return ny;
+      if (!nx && cx != cy) return cx < cy;
+      return x.tri < y.tri;
     });
     left.assign(refs.begin(), mid);
     right.assign(mid, refs.end());
@@ -458,7 +480,7 @@ class SpatialSplitBuilder {
     auto& enter = out.enter;
     auto& exit = out.exit;
     constexpr int room = 40;  // polygon buffers; a split adds at most one vertex
-    Point3f v[3], poly[9], buf[2][room + 2];
+    Point3f v[3], poly[16], buf[2][room + 2];
     for (size_t ri = begin; ri < end; ++ri) {
       const Ref& r = refs[ri];
       int b0[3] = {}, b1[3] = {};
@@ -562,12 +584,7 @@ SpatialBVH build_spatial_bvh(size_t n, Vertices&& vertices, const BVHBuildOption
 // MeshAccel's entry (spatial_build_hook): a mesh's positions and indices.
 inline SpatialBVH build_spatial_mesh_bvh(size_t n, const Point3f* p, const uint32_t* idx, const BVHBuildOptions& opt,
                                          const SplitReferences* start) {
-  auto vertices = [p, idx](size_t i, Point3f* v) {
-    v[0] = p[idx[3 * i]];
-    v[1] = p[idx[3 * i + 1]];
-    v[2] = p[idx[3 * i + 2]];
-  };
-  return build_spatial_bvh(n, vertices, opt, start);
+  return build_spatial_bvh(n, mesh_vertices(p, idx), opt, start);
 }
 // Set when this header is in the program, before main.
 inline const bool spatial_build_registered = (spatial_build_hook() = &build_spatial_mesh_bvh, true);

@@ -65,11 +65,7 @@ class MeshAccel {
     detail::check_split_options(opt.split_budget, opt.split_threshold);
     const Point3f* p = mesh.positions.data();
     const uint32_t* idx = mesh.indices.data();
-    auto vertices = [&](size_t i, Point3f* v) {
-      v[0] = p[idx[3 * i]];
-      v[1] = p[idx[3 * i + 1]];
-      v[2] = p[idx[3 * i + 2]];
-    };
+    auto vertices = detail::mesh_vertices(p, idx);
     detail::SpatialBuildFn spatial = nullptr;
     if (opt.spatial_splits) {
       if (!(opt.spatial_alpha >= 0) || !std::isfinite(opt.spatial_alpha))
