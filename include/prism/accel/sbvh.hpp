@@ -28,8 +28,9 @@
 // on the whole triangle) is the one a tree without splits finds.
 //
 // The build is serial below a few top levels, whose subtrees run on their
-// own threads; slower than BVH::build (it bins boxes of clipped triangles),
-// it pays where a scene is traced long enough: docs/performance.md has the
+// own threads; slower than BVH::build (it bins the boxes of triangles' parts
+// in slabs, and clips straddling references at the plane it takes), it pays
+// where a scene is traced long enough: docs/performance.md has the
 // measurements.
 //
 // MeshAccel reaches the builder through detail::spatial_build_hook(), which
@@ -438,25 +439,6 @@ class SpatialSplitBuilder {
     right.assign(mid, refs.end());
   }
 
-  // Splits the convex polygon in[0..n) at `plane` on `axis`: its part on the
-  // low side grows *low (a box), its part on the high side is written to out
-  // (returns its vertex count).
-  static int split_polygon(const Point3f* in, int n, int axis, Float plane, Bounds3f* low, Point3f* out) {
-    int m = 0;
-    for (int i = 0; i < n; ++i) {
-      const Point3f& p = in[i];
-      const Point3f& q = in[i + 1 == n ? 0 : i + 1];
-      if (p[axis] <= plane) *low = union_bounds(*low, p);
-      if (p[axis] >= plane) out[m++] = p;
-      if ((p[axis] < plane && q[axis] > plane) || (p[axis] > plane && q[axis] < plane)) {
-        const Point3f x = plane_crossing(p, q, axis, plane);
-        *low = union_bounds(*low, x);
-        out[m++] = x;
-      }
-    }
-    return m;
-  }
-
   // The best plane across the node's box `bb` (finite) on each axis, from the
   // boxes of the references' parts in each of spatial_bins slabs (for the
   // cost only: these parts need not be conservative).
@@ -479,8 +461,7 @@ class SpatialSplitBuilder {
     auto& box = out.box;
     auto& enter = out.enter;
     auto& exit = out.exit;
-    constexpr int room = 40;  // polygon buffers; a split adds at most one vertex
-    Point3f v[3], poly[16], buf[2][room + 2];
+    Point3f v[3];
     for (size_t ri = begin; ri < end; ++ri) {
       const Ref& r = refs[ri];
       int b0[3] = {}, b1[3] = {};
@@ -497,29 +478,41 @@ class SpatialSplitBuilder {
           spans = true;
       }
       if (!spans) continue;
-      // The triangle's part in the reference box, then cut at each plane.
+      // The triangle's part in each slab, from its vertices there and its
+      // edges' crossings of the slab's two planes, kept inside the
+      // reference's box (as Embree's spatial binning: looser than clipping
+      // the triangle to the reference's box first, for a cut reference, and
+      // several times cheaper).
       m_vertices(size_t(r.tri), v);
-      const Bounds3f tb = triangle_box(v[0], v[1], v[2]);
-      const bool whole = tb.min == r.box.min && tb.max == r.box.max;  // an uncut reference: the triangle
-      const int m = whole ? 3 : clip_triangle_to_box(v[0], v[1], v[2], r.box, poly);
-      if (whole) std::copy(v, v + 3, poly);
       for (int a = 0; a < 3; ++a) {
         if (!active[a] || b0[a] == b1[a]) continue;
-        int k = m, cur = 0;
-        std::copy(poly, poly + m, buf[0]);
-        for (int b = b0[a]; b <= b1[a]; ++b) {
-          Bounds3f part;
-          if (k == 0 || k > room) {  // (no polygon: the box's slab)
-            part = r.box;
-            part.min[a] = std::max(part.min[a], plane(a, b));
-            part.max[a] = std::min(part.max[a], plane(a, b + 1));
-          } else if (b == b1[a]) {
-            for (int i = 0; i < k; ++i) part = union_bounds(part, buf[cur][i]);
-          } else {
-            k = split_polygon(buf[cur], k, a, plane(a, b + 1), &part, buf[1 - cur]);
-            cur = 1 - cur;
+        // The crossings of the plane at `at` (at most two: a plane meets two edges of a triangle).
+        auto crossings = [&](Float at, Bounds3f* into) {
+          for (int e = 0; e < 3; ++e) {
+            const Point3f &p = v[e], &q = v[e == 2 ? 0 : e + 1];
+            if ((p[a] < at && q[a] > at) || (p[a] > at && q[a] < at)) *into = union_bounds(*into, plane_crossing(p, q, a, at));
           }
-          box[a][b] = union_bounds(box[a][b], part);
+        };
+        Bounds3f low;  // the crossings of the slab's lower plane
+        Float s0 = r.box.min[a];
+        crossings(s0, &low);
+        for (int b = b0[a]; b <= b1[a]; ++b) {
+          const Float s1 = b == b1[a] ? r.box.max[a] : plane(a, b + 1);
+          Bounds3f high;
+          crossings(s1, &high);
+          Bounds3f part = union_bounds(low, high);
+          for (int e = 0; e < 3; ++e)
+            if (v[e][a] >= s0 && v[e][a] <= s1) part = union_bounds(part, v[e]);
+          for (int k = 0; k < 3; ++k) {
+            part.min[k] = std::max(part.min[k], r.box.min[k]);
+            part.max[k] = std::min(part.max[k], r.box.max[k]);
+          }
+          part.min[a] = std::max(part.min[a], s0);
+          part.max[a] = std::min(part.max[a], s1);
+          if (part.min.x <= part.max.x && part.min.y <= part.max.y && part.min.z <= part.max.z)
+            box[a][b] = union_bounds(box[a][b], part);
+          low = high;
+          s0 = s1;
         }
       }
     }
