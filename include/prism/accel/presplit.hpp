@@ -303,6 +303,12 @@ inline void check_split_options(float budget, float threshold) {
     throw Error("BVHBuildOptions::split_threshold must be a finite number >= 1, got " + std::to_string(threshold));
 }
 
+// Throws prism::Error unless spatial_alpha (BVHBuildOptions) is finite and >= 0.
+inline void check_spatial_alpha(float alpha) {
+  if (!(alpha >= 0) || !std::isfinite(alpha))
+    throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " + std::to_string(alpha));
+}
+
 template <class Vertices>
 SplitReferences presplit_triangles(size_t n, Vertices&& vertices, float budget, float threshold, int threads) {
   check_split_options(budget, threshold);

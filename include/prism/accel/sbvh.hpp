@@ -65,9 +65,7 @@ class SpatialSplitBuilder {
   SpatialBVH build(size_t n, const SplitReferences* start = nullptr, bool keep_reference_boxes = false) {
     SpatialBVH out;
     check_split_options(m_opt.split_budget, m_opt.split_threshold);
-    if (!(m_opt.spatial_alpha >= 0) || !std::isfinite(m_opt.spatial_alpha))
-      throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " +
-                  std::to_string(m_opt.spatial_alpha));
+    check_spatial_alpha(m_opt.spatial_alpha);
     if (n == 0) return out;
     if (n > size_t(UINT32_MAX) / 2) throw Error("spatial splits: too many triangles (" + std::to_string(n) + ")");
     std::vector<Ref> refs;
@@ -238,14 +236,16 @@ class SpatialSplitBuilder {
       median_split(refs, cb, left, right);
     } else {
       if (n <= max_leaf && leaf_cost <= split_cost) return make_leaf();
-      if (best.spatial) spatial_partition(refs, best, left, right);
-      // The binned counts can differ from the cut's by references whose box
-      // ends within rounding of the plane: past the budget, the object split.
-      if (best.spatial && left.size() + right.size() - n > budget) {
-        left.clear();
-        right.clear();
+      if (best.spatial) {
+        spatial_partition(refs, best, left, right);  // (both sides non-empty)
+        // The binned counts can differ from the cut's by references whose box
+        // ends within rounding of the plane: past the budget, the object split.
+        if (left.size() + right.size() - n > budget) {
+          left.clear();
+          right.clear();
+        }
       }
-      if (left.empty() && right.empty()) object_partition(refs, cb, object, left, right);
+      if (left.empty()) object_partition(refs, cb, object, left, right);
     }
     refs = {};
     // The budget left, shared in proportion to the children's references.

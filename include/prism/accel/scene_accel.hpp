@@ -68,9 +68,7 @@ class MeshAccel {
     auto vertices = detail::mesh_vertices(p, idx);
     detail::SpatialBuildFn spatial = nullptr;
     if (opt.spatial_splits) {
-      if (!(opt.spatial_alpha >= 0) || !std::isfinite(opt.spatial_alpha))
-        throw Error("BVHBuildOptions::spatial_alpha must be a finite number >= 0, got " +
-                    std::to_string(opt.spatial_alpha));
+      detail::check_spatial_alpha(opt.spatial_alpha);
       spatial = detail::spatial_build_hook();
       if (!spatial)
         throw Error("BVHBuildOptions::spatial_splits: include prism/accel/sbvh.hpp, which holds the builder");
