@@ -22,6 +22,8 @@
 
 #include "support/random.hpp"
 
+namespace bvh_test {
+
 using namespace prism;
 
 namespace {
@@ -800,3 +802,5 @@ TEST_CASE("a million copies of one triangle build a bounded tree", "[accel][bvh]
   Float t2 = infinity;
   CHECK_FALSE(accel.intersect({0.7f, 0.7f, 0}, {0, 0, 1}, &t2, &h, &tri));  // beyond the hypotenuse
 }
+
+}  // namespace bvh_test

@@ -15,6 +15,8 @@
 
 #include "support/random.hpp"
 
+namespace collapse_test {
+
 using namespace prism;
 using test::uniform;
 
@@ -208,3 +210,5 @@ TEST_CASE("Boxes without area still fill the wide nodes", "[accel][bvh][collapse
   size_t least = (inner + W - 2) / (W - 1);
   CHECK(bvh.wide_node_count() <= least + inner / 20);
 }
+
+}  // namespace collapse_test

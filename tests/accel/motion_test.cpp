@@ -12,6 +12,8 @@
 
 #include "support/random.hpp"
 
+namespace motion_test {
+
 using namespace prism;
 
 namespace {
@@ -164,3 +166,5 @@ TEST_CASE("a still AnimatedTransform is stored as a plain instance", "[accel][mo
   CHECK(accel.instances()[0].motion == -1);
   CHECK(accel.motion_segments() == 1);
 }
+
+}  // namespace motion_test

@@ -21,6 +21,8 @@
 
 #include "support/random.hpp"
 
+namespace presplit_test {
+
 using namespace prism;
 
 namespace {
@@ -832,3 +834,5 @@ TEST_CASE("spatial-split references cover their triangles", "[accel][sbvh]") {
       CHECK(s.extra_tri.size() == s.ref_tri.size() - n);
     }
 }
+
+}  // namespace presplit_test

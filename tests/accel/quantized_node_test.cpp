@@ -19,6 +19,8 @@
 #include "support/lanes.hpp"
 #include "support/random.hpp"
 
+namespace quantized_node_test {
+
 using namespace prism;
 using test::random_unit;
 using test::uniform;
@@ -232,3 +234,5 @@ TEST_CASE("a ray entering a child's box enters its quantized lane no later", "[a
   CHECK(later == 0);
   CHECK(inside_wrong == 0);
 }
+
+}  // namespace quantized_node_test

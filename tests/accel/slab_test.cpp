@@ -25,6 +25,8 @@
 #include "support/lanes.hpp"
 #include "support/random.hpp"
 
+namespace slab_test {
+
 #if defined(__SIZEOF_FLOAT128__)  // GCC and Clang on x86-64
 
 using namespace prism;
@@ -470,3 +472,5 @@ TEST_CASE("two entered lanes are ordered nearer first", "[accel][bvh][slab]") {
   CHECK(ties > 1000);
   CHECK(wrong == 0);
 }
+
+}  // namespace slab_test

@@ -14,6 +14,8 @@
 #include <sstream>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace conductor_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -451,3 +453,5 @@ TEST_CASE("a conductor joins a bxdf_set and builds through BSDF::from_material",
   REQUIRE(bs);
   CHECK(bsdf.pdf(wo, bs->wi) == Approx(bs->pdf).epsilon(1e-5));
 }
+
+}  // namespace conductor_test

@@ -12,6 +12,8 @@
 #include "prism/sampling/pcg32.hpp"
 #include "prism/spectra/sampled.hpp"
 
+namespace dielectric_test {
+
 using namespace prism;
 
 namespace {
@@ -356,3 +358,5 @@ TEST_CASE("DielectricMaterial validation names the material, and dispersion asks
   CHECK_FALSE(Traits::needs_spectral(DielectricMaterial{1.5f, "window"}));
   CHECK_FALSE(Traits::needs_spectral(DielectricMaterial{AbbeIOR{1.5f, 0}, "abbe_flat"}));
 }
+
+}  // namespace dielectric_test

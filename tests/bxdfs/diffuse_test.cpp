@@ -4,6 +4,8 @@
 #include <prism/prism.hpp>
 #include "support/chi2.hpp"
 
+namespace diffuse_test {
+
 using namespace prism;
 
 namespace {
@@ -92,3 +94,5 @@ TEST_CASE("BSDF works in the shading frame and rejects grazing wo", "[bxdfs][bsd
   CHECK_FALSE(bsdf.sample(tangent, 0.1f, {0.2f, 0.7f}));
   CHECK(bsdf.eval(tangent, bs->wi).is_black());
 }
+
+}  // namespace diffuse_test

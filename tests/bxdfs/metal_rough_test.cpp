@@ -19,6 +19,8 @@
 #include <prism/spectra/traits.hpp>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace metal_rough_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -881,3 +883,5 @@ TEST_CASE("metal-rough multiple scattering: sample matches pdf, eval is reciproc
   CHECK_FALSE(make_bxdf<RGB>(with_ms(material(0, 0.5f, 0))).multiple_scattering());
   CHECK_FALSE(make_bxdf<RGB>(with_ms(material(1e-4f, 0.5f, 0))).multiple_scattering());
 }
+
+}  // namespace metal_rough_test

@@ -9,6 +9,8 @@
 #include <vector>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace microfacet_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -230,3 +232,5 @@ TEST_CASE("microfacet functions are finite at grazing angles and tiny alphas", "
         }
       }
 }
+
+}  // namespace microfacet_test

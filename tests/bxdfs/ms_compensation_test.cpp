@@ -7,6 +7,8 @@
 #include <prism/prism.hpp>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace ms_compensation_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -92,3 +94,5 @@ TEST_CASE("multiple scattering through ConductorMaterial, off by default", "[bxd
   m.roughness = MicrofacetRoughness{0, 0};
   CHECK_FALSE(bxdf_traits<ConductorBxDF<RGB>>::make(m, si, RGBWavelengths{}).multiple_scattering());
 }
+
+}  // namespace ms_compensation_test

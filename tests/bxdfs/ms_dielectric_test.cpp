@@ -15,6 +15,8 @@
 #include <sstream>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace ms_dielectric_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -261,3 +263,5 @@ TEST_CASE("dielectric multiple scattering: off by default, on through the materi
       }
     }
 }
+
+}  // namespace ms_dielectric_test

@@ -10,6 +10,8 @@
 #include "bxdfs/bxdf_check.hpp"
 #include "oren_nayar.hpp"
 
+namespace oren_nayar_test {
+
 using namespace prism;
 using namespace bxdf_check;
 using example::OrenNayarBxDF;
@@ -183,3 +185,5 @@ TEST_CASE("a scene with the extended set renders Oren-Nayar: Lambert at sigma 0,
     }
   CHECK(sum_spectral == Approx(sum_rgb).epsilon(0.02));
 }
+
+}  // namespace oren_nayar_test

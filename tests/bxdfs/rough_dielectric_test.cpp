@@ -13,6 +13,8 @@
 #include <sstream>
 #include "bxdfs/bxdf_check.hpp"
 
+namespace rough_dielectric_test {
+
 using namespace prism;
 using namespace bxdf_check;
 
@@ -425,3 +427,5 @@ TEST_CASE("thin dielectric material: per-wavelength eta without termination, val
   CHECK(bsdf.bxdf().index() == 1);
   CHECK_FALSE(w2.secondary_terminated());
 }
+
+}  // namespace rough_dielectric_test

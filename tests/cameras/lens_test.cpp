@@ -6,6 +6,8 @@
 #include <cmath>
 #include <prism/prism.hpp>
 
+namespace lens_test {
+
 using namespace prism;
 
 namespace {
@@ -89,3 +91,5 @@ TEST_CASE("orthographic camera: parallel rays, and connect inverts generate_ray"
   CHECK_FALSE(cam.connect({1, 2, 6}, {}));  // behind the image plane
   CHECK_THROWS_AS(OrthographicCamera(Transform{}, -1.f, 4, 4), Error);
 }
+
+}  // namespace lens_test

@@ -2,6 +2,8 @@
 #include <catch2/catch.hpp>
 #include <prism/prism.hpp>
 
+namespace perspective_test {
+
 using namespace prism;
 
 TEST_CASE("perspective camera looks at its target with the right field of view", "[cameras]") {
@@ -35,3 +37,5 @@ TEST_CASE("thin lens rays through one film point meet at the focus distance", "[
     CHECK(std::hypot(r.o.x, r.o.y) <= 0.2f + 1e-6f);
   }
 }
+
+}  // namespace perspective_test

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <prism/prism.hpp>
 
+namespace film_test {
+
 using namespace prism;
 
 TEST_CASE("Gaussian filter importance sampling reproduces the filter", "[film][filter]") {
@@ -62,3 +64,5 @@ TEST_CASE("film accumulates means and the variance of the mean", "[film]") {
   CHECK(film.sample_count(1, 0) == 4);
   CHECK(film.pixel(0, 0).is_black());
 }
+
+}  // namespace film_test

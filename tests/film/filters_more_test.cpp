@@ -7,6 +7,8 @@
 #include <prism/prism.hpp>
 #include "support/chi2.hpp"
 
+namespace filters_more_test {
+
 using namespace prism;
 using Catch::Matchers::Contains;
 
@@ -222,3 +224,5 @@ TEST_CASE("every filter keeps a constant image constant through render", "[film]
       }
   }
 }
+
+}  // namespace filters_more_test

@@ -24,6 +24,8 @@
 #include "prism/sampling/pcg32.hpp"
 #include "prism/sampling/warps.hpp"
 
+namespace self_intersection_test {
+
 using namespace prism;
 
 namespace {
@@ -523,3 +525,5 @@ TEST_CASE("rays spawned near the inner edges of a closed box stay inside at any 
     CHECK(primary_misses == 0);
   }
 }
+
+}  // namespace self_intersection_test

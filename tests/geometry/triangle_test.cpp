@@ -12,6 +12,8 @@
 
 #include "support/random.hpp"
 
+namespace triangle_test {
+
 using namespace prism;
 
 namespace {
@@ -124,3 +126,5 @@ TEST_CASE("the closest of overlapping coplanar triangles does not depend on thei
   CHECK(order_dependent == 0);
   CHECK(bad_limit == 0);
 }
+
+}  // namespace triangle_test

@@ -40,6 +40,8 @@
 #include "prism/sampling/warps.hpp"
 #include "support/meshes.hpp"
 
+namespace watertight_test {
+
 using namespace prism;
 
 namespace {
@@ -359,3 +361,5 @@ TEST_CASE("rays aimed at shared edges and vertices of a pre-split sliver tube ne
     CHECK(st.back_facing == 0);
   }
 }
+
+}  // namespace watertight_test

@@ -26,6 +26,8 @@
 #include <random>
 #include <thread>
 
+namespace bad_input_test {
+
 using namespace prism;
 using Catch::Matchers::Contains;
 using nlohmann::json;
@@ -519,3 +521,5 @@ TEST_CASE("bad input: random byte flips of BoxTextured.glb", "[gltf][bad_input]"
 }
 
 }  // namespace
+
+}  // namespace bad_input_test

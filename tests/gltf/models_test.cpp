@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
 
+namespace models_test {
+
 using namespace prism;
 
 
@@ -295,3 +297,5 @@ TEST_CASE("NormalTangentMirrorTest: normal-mapped cells tilt like the geometry c
   CHECK(agree > 1000);
   CHECK(double(disagree) < 0.1 * double(agree));
 }
+
+}  // namespace models_test

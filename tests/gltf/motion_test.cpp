@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <prism/io/gltf.hpp>
 
+namespace motion_test {
+
 using namespace prism;
 
 TEST_CASE("a glTF animation over the shutter moves the instance as the file does", "[gltf][motion][shared]") {
@@ -68,3 +70,5 @@ TEST_CASE("glTF options reject a negative or non-finite shutter and time", "[glt
   bad_time.time = std::numeric_limits<double>::infinity();
   CHECK_THROWS_WITH(load_gltf<RGB>(path, bad_time), Catch::Contains("time"));
 }
+
+}  // namespace motion_test

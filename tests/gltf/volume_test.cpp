@@ -25,6 +25,8 @@
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
 
+namespace volume_test {
+
 using namespace prism;
 using nlohmann::json;
 
@@ -383,3 +385,5 @@ TEST_CASE("GltfOptions multiple_scattering turns on energy compensation of every
   CHECK_FALSE(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat_off, si, RGBWavelengths{}).multiple_scattering());
   CHECK(bxdf_traits<MetalRoughBxDF<RGB>>::make(mat_on, si, RGBWavelengths{}).multiple_scattering());
 }
+
+}  // namespace volume_test

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <prism/prism.hpp>
 
+namespace analytic_test {
+
 using namespace prism;
 
 namespace {
@@ -244,3 +246,5 @@ TEST_CASE("a glass whose Sellmeier law gives eta at most 1 is rejected when the 
     CHECK(msg.find("material 0") != std::string::npos);
   }
 }
+
+}  // namespace analytic_test

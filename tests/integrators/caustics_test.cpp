@@ -10,6 +10,8 @@
 #include <vector>
 #include <prism/prism.hpp>
 
+namespace caustics_test {
+
 using namespace prism;
 
 namespace {
@@ -131,3 +133,5 @@ TEST_CASE("the caustic pass runs only for scenes with specular materials and are
   Film film2(8, 8);
   CHECK(render(glass, cam, PathIntegrator{}, film2, opt).light_paths == 8 * 8 * 4);
 }
+
+}  // namespace caustics_test

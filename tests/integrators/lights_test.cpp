@@ -5,6 +5,8 @@
 #include <prism/prism.hpp>
 #include "support/film_checks.hpp"
 
+namespace lights_test {
+
 using namespace prism;
 using namespace prism_test;
 
@@ -93,3 +95,5 @@ TEST_CASE("an environment-lit diffuse sphere agrees between NEE with MIS and BSD
 TEST_CASE("an environment-lit diffuse sphere agrees between NEE with MIS and BSDF sampling, spectral", "[integrators][lights][environment][spectral]") {
   check_environment_lit_sphere<Spectral>();
 }
+
+}  // namespace lights_test

@@ -8,6 +8,8 @@
 #include <chrono>
 #include <prism/prism.hpp>
 
+namespace many_lights_test {
+
 using namespace prism;
 
 namespace {
@@ -148,3 +150,5 @@ TEST_CASE("path tracing the many-lights scene: BVH matches power selection", "[i
   CHECK(st[0].mean > 0);
   CHECK(std::abs(st[0].mean - st[1].mean) <= 4 * sigma);
 }
+
+}  // namespace many_lights_test

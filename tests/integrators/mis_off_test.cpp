@@ -9,6 +9,8 @@
 #include <prism/prism.hpp>
 #include "support/film_checks.hpp"
 
+namespace mis_off_test {
+
 using namespace prism;
 using namespace prism_test;
 
@@ -88,3 +90,5 @@ TEST_CASE("NEE without MIS agrees with NEE with MIS under an environment map wit
   PerspectiveCamera cam(look_at_camera_to_world({0, 0, 6}, {0, 0, 0}, {0, 1, 0}), radians(30), w, h);
   check_mis_off_agrees(scene, cam, w, h, 512, 51);
 }
+
+}  // namespace mis_off_test

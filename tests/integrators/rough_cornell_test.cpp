@@ -14,6 +14,8 @@
 #include <prism/bxdfs/metal_rough.hpp>
 #include <prism/prism.hpp>
 
+namespace rough_cornell_test {
+
 using namespace prism;
 
 namespace {
@@ -123,3 +125,5 @@ TEST_CASE("rough Cornell box: NEE with MIS agrees with BSDF sampling per region"
 TEST_CASE("rough Cornell box: NEE with MIS agrees with BSDF sampling per region, spectral", "[integrators][rough_cornell][spectral]") {
   check_agreement<Spectral>(96, 192);
 }
+
+}  // namespace rough_cornell_test

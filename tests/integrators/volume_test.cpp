@@ -6,6 +6,8 @@
 #include <cmath>
 #include <prism/prism.hpp>
 
+namespace volume_test {
+
 using namespace prism;
 
 namespace {
@@ -63,3 +65,5 @@ TEST_CASE("a volume with a colour outside the unit interval or a non-positive di
   scene2.add_sphere(Sphere{{0, 0, 0}, 1}, scene2.add_material(glass));
   CHECK_THROWS_AS(scene2.build(), Error);
 }
+
+}  // namespace volume_test

@@ -4,6 +4,8 @@
 #include <string>
 #include <prism/io/image_io.hpp>
 
+namespace tonemap_test {
+
 using namespace prism;
 
 TEST_CASE("PBR Neutral keeps mid-tones, compresses highlights below 1 and is monotonic", "[io][tonemap]") {
@@ -36,3 +38,5 @@ TEST_CASE("write_png applies exposure and rejects a negative one", "[io][tonemap
   CHECK_NOTHROW(write_image(dir + "/tonemap_clamp.png", img, PngOptions{2.f, ToneMap::clamp}));
   CHECK_THROWS_AS(write_png(dir + "/bad.png", img, PngOptions{-1.f, ToneMap::clamp}), Error);
 }
+
+}  // namespace tonemap_test

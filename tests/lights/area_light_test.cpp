@@ -5,6 +5,8 @@
 #include <prism/prism.hpp>
 #include "support/chi2.hpp"
 
+namespace area_light_test {
+
 using namespace prism;
 
 namespace {
@@ -117,3 +119,5 @@ TEST_CASE("sphere light from outside: NEE with MIS agrees with BSDF sampling", "
       CHECK(va < vb);
     }
 }
+
+}  // namespace area_light_test

@@ -14,6 +14,8 @@
 #include "support/chi2.hpp"
 #include "support/skip.hpp"
 
+namespace env_file_io_test {
+
 using namespace prism;
 using Catch::Matchers::Contains;
 
@@ -353,3 +355,5 @@ TEST_CASE("a diffuse sphere lit by the shared HDR map agrees between NEE with MI
   WARN("NEE+MIS " << std::chrono::duration<double>(t1 - t0).count() << " s, BSDF "
                   << std::chrono::duration<double>(t2 - t1).count() << " s, largest |difference| / sigma " << worst);
 }
+
+}  // namespace env_file_io_test

@@ -9,6 +9,8 @@
 #include <prism/lights/image_infinite.hpp>
 #include "support/chi2.hpp"
 
+namespace image_infinite_test {
+
 using namespace prism;
 
 namespace {
@@ -292,3 +294,5 @@ TEST_CASE("image infinite light rejects bad input with prism Error", "[lights][i
   CHECK_NOTHROW(ImageInfiniteLight<RGB>(img, 1, rotate(0.3f, {1, 2, 3}) * translate({4, 5, 6})));
   CHECK_NOTHROW(ImageInfiniteLight<Spectral>(img, 0));
 }
+
+}  // namespace image_infinite_test

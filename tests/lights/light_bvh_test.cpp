@@ -8,6 +8,8 @@
 #include "support/chi2.hpp"
 #include "support/random.hpp"
 
+namespace light_bvh_test {
+
 using namespace prism;
 using prism::test::random_unit;
 using prism::test::uniform;
@@ -319,3 +321,5 @@ TEST_CASE("scene light selection dispatch", "[lights][light_bvh]") {
     }
   }
 }
+
+}  // namespace light_bvh_test

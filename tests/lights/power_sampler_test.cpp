@@ -9,6 +9,8 @@
 #include <prism/lights/punctual.hpp>
 #include "support/chi2.hpp"
 
+namespace power_sampler_test {
+
 using namespace prism;
 
 namespace {
@@ -136,3 +138,5 @@ TEST_CASE("RGB and spectral power luminance agree for grey lights", "[lights][po
     CHECK(light_power_luminance<Spectral>(spec[i]) == Approx(light_power_luminance<RGB>(rgb[i])).epsilon(5e-3));
   }
 }
+
+}  // namespace power_sampler_test

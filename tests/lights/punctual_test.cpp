@@ -8,6 +8,8 @@
 #include <prism/lights/punctual.hpp>
 #include "support/chi2.hpp"
 
+namespace punctual_test {
+
 using namespace prism;
 
 namespace {
@@ -247,3 +249,5 @@ TEST_CASE("punctual lights reject bad parameters with prism Error naming them", 
   CHECK_THROWS_WITH(SunLight<RGB>(d, RGB(1), 1, nan), Contains("angular diameter"));
   CHECK_THROWS_AS(SunLight<Spectral>(d, RGB(1), 1, -1), Error);
 }
+
+}  // namespace punctual_test

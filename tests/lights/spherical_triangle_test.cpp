@@ -8,6 +8,8 @@
 #include <prism/prism.hpp>
 #include "support/chi2.hpp"
 
+namespace spherical_triangle_test {
+
 using namespace prism;
 
 namespace {
@@ -187,3 +189,5 @@ TEST_CASE("triangle light NEE: closed-form irradiance, pdf_li agrees, lower vari
     WARN("triangle light at solid angle " << omega << ": variance spherical/area = " << var / avar);
   }
 }
+
+}  // namespace spherical_triangle_test

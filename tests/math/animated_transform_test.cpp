@@ -4,6 +4,8 @@
 #include <prism/math/animated_transform.hpp>
 #include <prism/sampling/pcg32.hpp>
 
+namespace animated_transform_test {
+
 using namespace prism;
 
 namespace {
@@ -149,3 +151,5 @@ TEST_CASE("animated transform rejects bad keys and intervals with prism Error", 
   CHECK_THROWS_WITH(AnimatedTransform(a, nan), Catch::Contains("not finite"));
   CHECK_THROWS_AS(TransformKey::decompose(scale(1, 0, 1)), Error);
 }
+
+}  // namespace animated_transform_test

@@ -18,6 +18,8 @@
 #include "prism/math/transform.hpp"
 #include "prism/sampling/pcg32.hpp"
 
+namespace float_test {
+
 using namespace prism;
 using ld = long double;
 
@@ -377,3 +379,5 @@ TEST_CASE("Transform of a singular matrix is not invertible", "[math][transform]
   CHECK(Transform(Matrix4{}).invertible());
   CHECK(Transform(Matrix4{}).is_identity());
 }
+
+}  // namespace float_test

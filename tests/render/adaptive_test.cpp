@@ -7,6 +7,8 @@
 #include <cstring>
 #include <prism/prism.hpp>
 
+namespace adaptive_test {
+
 using namespace prism;
 
 namespace {
@@ -221,3 +223,5 @@ TEST_CASE("adaptive sampling rejects a split render and bad options", "[render][
   opt.adaptive_target = -1;
   CHECK_THROWS_AS(render(scene, cam, PathIntegrator{}, film, opt), Error);
 }
+
+}  // namespace adaptive_test

@@ -10,6 +10,8 @@
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
 
+namespace aov_io_test {
+
 using namespace prism;
 
 namespace {
@@ -228,3 +230,5 @@ TEST_CASE("EXR string attributes are written to the header and read back", "[io]
   write_png(png, img);
   CHECK_THROWS_WITH(read_exr_attributes(png), Catch::Contains("attributes_not_exr.png"));
 }
+
+}  // namespace aov_io_test

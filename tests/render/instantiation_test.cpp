@@ -6,6 +6,8 @@
 #include <memory>
 #include <prism/prism.hpp>
 
+namespace instantiation_test {
+
 using namespace prism;
 
 namespace {
@@ -173,3 +175,5 @@ TEST_CASE("the default scene cannot be built in the diffuse set", "[render][inst
   Scene<RGB, diffuse_bxdf_set<RGB>> plain;
   CHECK_NOTHROW(build_cornell_box(plain, diffuse_cornell_box_options()));
 }
+
+}  // namespace instantiation_test

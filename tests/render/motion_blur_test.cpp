@@ -8,6 +8,8 @@
 #include <catch2/catch.hpp>
 #include <prism/prism.hpp>
 
+namespace motion_blur_test {
+
 using namespace prism;
 
 namespace {
@@ -115,3 +117,5 @@ TEST_CASE("cameras reject a reversed or non-finite shutter and a negative apertu
   OrthographicCamera ortho(Transform{}, 1, 8, 8);
   CHECK_THROWS_AS(ortho.set_shutter(Shutter{2, 1}), Error);
 }
+
+}  // namespace motion_blur_test

@@ -7,6 +7,8 @@
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
 
+namespace render_test {
+
 using namespace prism;
 
 namespace {
@@ -109,3 +111,5 @@ TEST_CASE("rendering stops when cancelled and reports progress", "[render]") {
   // caustics of the default scene's glass (64 x 64 pixels x 1 spp).
   CHECK(total_seen == 16 + 1);
 }
+
+}  // namespace render_test

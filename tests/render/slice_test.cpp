@@ -10,6 +10,8 @@
 #include <vector>
 #include <prism/prism.hpp>
 
+namespace slice_test {
+
 using namespace prism;
 
 namespace {
@@ -205,3 +207,5 @@ TEST_CASE("AOVs of sample ranges merge into the whole render's", "[render][slice
     }
   CHECK(worst <= 1e-5);
 }
+
+}  // namespace slice_test

@@ -21,6 +21,8 @@
 #include "prism/sampling/stratified.hpp"
 #include "support/chi2.hpp"
 
+namespace sobol_test {
+
 using namespace prism;
 using prism_test::EstimateStats;
 using prism_test::pixel_estimates;
@@ -239,3 +241,5 @@ TEST_CASE("sobol sampling has lower variance than independent and stratified sam
     CHECK(std::abs(q.mean - c.exact) <= 5 * std::sqrt(q.variance / pixels));
   }
 }
+
+}  // namespace sobol_test

@@ -19,6 +19,8 @@
 #include "prism/sampling/stratified.hpp"
 #include "support/chi2.hpp"
 
+namespace stratified_test {
+
 using namespace prism;
 using prism_test::EstimateStats;
 using prism_test::pixel_estimates;
@@ -252,3 +254,5 @@ TEST_CASE("stratified sampling has lower variance than independent sampling", "[
     CHECK(std::abs(b.mean - c.exact) <= 5 * std::sqrt(b.variance / pixels));
   }
 }
+
+}  // namespace stratified_test

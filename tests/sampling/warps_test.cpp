@@ -18,6 +18,8 @@
 #include "prism/sampling/warps.hpp"
 #include "support/chi2.hpp"
 
+namespace warps_test {
+
 using namespace prism;
 using prism_test::Chi2Result;
 using prism_test::Grid2D;
@@ -293,3 +295,5 @@ TEST_CASE("chi2 test rejects samples outside the claimed support", "[sampling][c
   CHECK(r2.impossible == r2.outside);
   CHECK(r2.p_value == 0.0);
 }
+
+}  // namespace warps_test

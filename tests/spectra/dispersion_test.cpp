@@ -11,6 +11,8 @@
 #include <vector>
 #include "prism/spectra/dispersion.hpp"
 
+namespace dispersion_test {
+
 using namespace prism;
 
 namespace {
@@ -179,3 +181,5 @@ TEST_CASE("validate rejects eta <= 1, NaN or Inf in 360-830 nm and names the mat
   CHECK_THROWS_WITH(IOR(AbbeIOR{1.05f, 400.f}).validate("prism glass"),
                     Catch::Contains("prism glass") && Catch::Contains("Abbe") && Catch::Contains(" nm"));
 }
+
+}  // namespace dispersion_test

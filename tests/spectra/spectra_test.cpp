@@ -5,6 +5,9 @@
 #include <vector>
 #include "prism/sampling/pcg32.hpp"
 #include "prism/spectra/spectrum.hpp"
+#include "support/chi2.hpp"
+
+namespace spectra_test {
 
 using namespace prism;
 
@@ -77,8 +80,6 @@ TEST_CASE("terminate_secondary keeps the hero with density pdf/N", "[spectra][wa
   w.terminate_secondary();  // idempotent
   CHECK(w.pdf()[0] == Approx(p0 / 4));
 }
-
-#include "support/chi2.hpp"
 
 TEST_CASE("Visible-wavelength sampling follows its density (chi-square)", "[spectra][wavelengths][chi2]") {
   PCG32 rng(0, 11);
@@ -157,3 +158,5 @@ TEST_CASE("Wavelength sampling: both strategies are unbiased and visible has the
   check(warm, "blackbody 3000 K");
   check(greenish, "greenish reflectance");
 }
+
+}  // namespace spectra_test

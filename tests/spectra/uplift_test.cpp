@@ -10,6 +10,8 @@
 #include "prism/sampling/pcg32.hpp"
 #include "prism/spectra/rgb_to_spectrum.hpp"
 
+namespace uplift_test {
+
 using namespace prism;
 
 namespace {
@@ -293,3 +295,5 @@ TEST_CASE("Uplift cost at render time: lookup plus 4 evaluations", "[spectra][up
   std::printf("RGBAlbedoSpectrum construction + 4 evaluations: %.1f ns (checksum %.3f)\n", ns, sink / n);
   CHECK(sink > 0);
 }
+
+}  // namespace uplift_test

@@ -11,6 +11,8 @@
 // with 1 and 2 threads. See docs/stability.md.
 #include "stability/stability.hpp"
 
+namespace geometry_stability_test {
+
 using namespace prism;
 using namespace prism::stability;
 
@@ -271,3 +273,5 @@ TEST_CASE("coplanar overlapping triangles", "[stability][geometry][coplanar]") {
     check_deterministic(scene, cam, c);
   }
 }
+
+}  // namespace geometry_stability_test

@@ -8,6 +8,8 @@
 // by a per-sample maximum derived from the estimator. See docs/stability.md.
 #include "stability/stability.hpp"
 
+namespace lights_stability_test {
+
 using namespace prism;
 using namespace prism::stability;
 
@@ -473,3 +475,5 @@ TEST_CASE("dispersive glass sphere under a small light", "[stability][lights][di
   bsdf.check(false);
   nee.check();
 }
+
+}  // namespace lights_stability_test

@@ -10,6 +10,8 @@
 // See docs/stability.md.
 #include "stability/stability.hpp"
 
+namespace surfaces_stability_test {
+
 using namespace prism;
 using namespace prism::stability;
 
@@ -106,3 +108,5 @@ TEST_CASE("conductor plane of roughness 0, 1e-4 and 1 at grazing angles", "[stab
     }
   }
 }
+
+}  // namespace surfaces_stability_test

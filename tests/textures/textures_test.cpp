@@ -9,6 +9,8 @@
 #include <prism/textures/normal_map.hpp>
 #include <prism/textures/texture.hpp>
 
+namespace textures_test {
+
 using namespace prism;
 
 namespace {
@@ -585,3 +587,5 @@ TEST_CASE("mapped normals below the surface are bent back above it", "[textures]
   check_unit_finite(apply_normal_map(RGB(1, 0.5f, 1), 1, T, B, {0, 0, 0}));
   check_unit_finite(apply_normal_map(RGB(1, 0.5f, 1), 1, T, B, {nan, 0, 1}));
 }
+
+}  // namespace textures_test
