@@ -246,7 +246,7 @@ class MeshAccel {
   }
 
   BVH m_bvh;
-  std::vector<TrianglePacket> m_packets;
+  detail::fill_later_vector<TrianglePacket> m_packets;  // written whole by pack(), in parallel
   std::vector<uint32_t> m_extra_tri;  // pre-splitting only: extra reference n + j -> triangle
   size_t m_triangles = 0;
   int m_threads = 1;
