@@ -10,6 +10,8 @@
 # Example: scripts/ab_traversal.sh HEAD            (the uncommitted change)
 #          scripts/ab_traversal.sh HEAD~3 HEAD --reps 40
 # Needs a C++20 compiler (CXX, default c++); compiled with -O3 -march=native.
+# CXX_A and CXX_B, if set, compile the two sides (one revision under two
+# compilers: scripts/ab_traversal.sh HEAD HEAD with CXX_B=clang++).
 # Exit status 1 when the two versions' hits differ.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -40,10 +42,10 @@ export_include "$a" "$tmp/a"
 export_include "$b" "$tmp/b"
 cxx=${CXX:-c++}
 flags=(-std=gnu++20 -O3 -DNDEBUG -march=native -Ibench)
-echo "ab_traversal: A = $a, B = $b; compiling..."
-"$cxx" "${flags[@]}" -Dprism=prism_ab_a -DAB_SIDE=a -I"$tmp/a/include" -c bench/ab_traversal.cpp -o "$tmp/a.o" &
+echo "ab_traversal: A = $a (${CXX_A:-$cxx}), B = $b (${CXX_B:-$cxx}); compiling..."
+"${CXX_A:-$cxx}" "${flags[@]}" -Dprism=prism_ab_a -DAB_SIDE=a -I"$tmp/a/include" -c bench/ab_traversal.cpp -o "$tmp/a.o" &
 pa=$!
-"$cxx" "${flags[@]}" -Dprism=prism_ab_b -DAB_SIDE=b -I"$tmp/b/include" -c bench/ab_traversal.cpp -o "$tmp/b.o" &
+"${CXX_B:-$cxx}" "${flags[@]}" -Dprism=prism_ab_b -DAB_SIDE=b -I"$tmp/b/include" -c bench/ab_traversal.cpp -o "$tmp/b.o" &
 pb=$!
 "$cxx" "${flags[@]}" -DAB_MAIN -c bench/ab_traversal.cpp -o "$tmp/main.o"
 wait $pa

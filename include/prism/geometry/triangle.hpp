@@ -42,6 +42,8 @@ struct RayTrianglePrecomp {
   int kx = 0, ky = 1, kz = 2;
   Float sx = 0, sy = 0, sz = 1;
 
+  // The identity: a ray along +z.
+  RayTrianglePrecomp() = default;
   explicit RayTrianglePrecomp(const Vector3f& d) {
     kz = max_dimension(abs(d));
     kx = kz + 1 == 3 ? 0 : kz + 1;
