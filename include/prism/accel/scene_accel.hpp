@@ -172,12 +172,11 @@ class MeshAccel {
                                 }
                             });
   }
-  // The lanes of packet `first / W + j` that belong to a leaf of `count`
-  // triangles starting at `first`.
-  static int lanes_of(uint32_t count, uint32_t j) {
-    uint32_t left = count - j * W;
-    return left >= uint32_t(W) ? (1 << W) - 1 : (1 << left) - 1;
-  }
+  // Every lane of a leaf's packets is tested: the build pads a leaf to whole
+  // packets by repeating its last triangle (BVHBuildOptions::leaf_block), and
+  // a repeated triangle finds the same hit again, which changes nothing (the
+  // first lane of equal t wins; a shadow ray's `skip` matches the copies too).
+  static constexpr int all_lanes = (1 << W) - 1;
 
   // The lanes of a packet, given its leaf-order entries, that hold triangle
   // `skip`. Unsplit, an entry is its triangle, and the lanes are compared at
@@ -232,7 +231,7 @@ class MeshAccel {
       bool any = false;
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
-        if (auto h = intersect_packet<KZ>(m_packets[k], o, pc, tm, lanes_of(count, j))) {
+        if (auto h = intersect_packet<KZ>(m_packets[k], o, pc, tm, all_lanes)) {
           tm = h->hit.t;
           *hit = h->hit;
           best = k * W + uint32_t(h->lane);
@@ -252,7 +251,7 @@ class MeshAccel {
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
-        int lanes = lanes_of(count, j);
+        int lanes = all_lanes;
         if (skip != UINT32_MAX) lanes &= ~lanes_of_triangle(order + size_t(k) * W, skip);
         if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
       }
