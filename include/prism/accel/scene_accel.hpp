@@ -248,12 +248,13 @@ class MeshAccel {
                                    Float t_max, uint32_t skip) const {
     const RayTrianglePrecomp pc = shear_for<KZ>(sx, sy, sz);
     const uint32_t* order = m_bvh.prims().data();
+    const TrianglePacket* packets = m_packets.data();
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
         int lanes = all_lanes;
         if (skip != UINT32_MAX) lanes &= ~lanes_of_triangle(order + size_t(k) * W, skip);
-        if (occluded_packet<KZ>(m_packets[k], o, pc, tm, lanes)) return true;
+        if (occluded_packet<KZ>(packets[k], o, pc, tm, lanes)) return true;
       }
       return false;
     });
