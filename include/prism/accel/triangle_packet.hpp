@@ -72,6 +72,11 @@ struct PacketHit {
 
 namespace detail {
 
+// Out of line: lanes reach it only when single precision cannot decide
+// (rarely), and the traversal loops that inline the packet test stay small.
+#if defined(__GNUC__) || defined(__clang__)
+[[gnu::noinline, gnu::cold]]
+#endif
 inline std::optional<TriangleHit> intersect_lane(const TrianglePacket& p, int lane, const Point3f& o,
                                                  const RayTrianglePrecomp& pc, Float t_max) {
   return intersect_triangle(o, pc, t_max, p.vertex(lane, 0), p.vertex(lane, 1), p.vertex(lane, 2));
