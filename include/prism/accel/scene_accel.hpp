@@ -118,7 +118,7 @@ class MeshAccel {
   Bounds3f bounds() const { return m_bvh.bounds(); }
   // Bytes of the BVH (nodes and leaf order), the triangle packets and the split map.
   size_t memory_bytes() const {
-    return m_bvh.memory_bytes() + m_packets.size() * sizeof(TrianglePacket) +
+    return m_bvh.memory_bytes() + m_packets.size() * sizeof(LeafPacket) +
            m_extra_tri.size() * sizeof(uint32_t);
   }
 
@@ -154,6 +154,15 @@ class MeshAccel {
 
  private:
   static constexpr int W = triangle_packet_width;
+  // A packet of a leaf's triangles with their indices in the mesh: a hit
+  // reads its triangle from the cache line it was tested in, and a shadow
+  // ray's `skip` is compared without a lookup (with 8 lanes the indices fill
+  // the fifth cache line, which the vertices used by half).
+  struct alignas(W == 8 ? 64 : 32) LeafPacket {
+    TrianglePacket tris;
+    uint32_t tri[W];
+  };
+  static_assert(sizeof(LeafPacket) == 40 * W);
   // The triangle of BVH reference r: itself, or for an extra piece from
   // pre-splitting (r >= the triangle count) the one it was cut from.
   uint32_t triangle_of(uint32_t r) const { return r < m_triangles ? r : m_extra_tri[r - m_triangles]; }
@@ -168,7 +177,8 @@ class MeshAccel {
                               for (size_t k = begin; k < end; ++k)
                                 for (int l = 0; l < W; ++l) {
                                   size_t t = triangle_of(order[k * W + size_t(l)]);
-                                  m_packets[k].set(l, p[idx[3 * t]], p[idx[3 * t + 1]], p[idx[3 * t + 2]]);
+                                  m_packets[k].tris.set(l, p[idx[3 * t]], p[idx[3 * t + 1]], p[idx[3 * t + 2]]);
+                                  m_packets[k].tri[l] = uint32_t(t);
                                 }
                             });
   }
@@ -178,25 +188,20 @@ class MeshAccel {
   // first lane of equal t wins; a shadow ray's `skip` matches the copies too).
   static constexpr int all_lanes = (1 << W) - 1;
 
-  // The lanes of a packet, given its leaf-order entries, that hold triangle
-  // `skip`. Unsplit, an entry is its triangle, and the lanes are compared at
-  // once (shadow rays to an area light skip the light's triangle in every
-  // packet they test).
-  int lanes_of_triangle(const uint32_t* entries, uint32_t skip) const {
+  // The lanes of a packet that hold triangle `skip`, compared at once
+  // (shadow rays to an area light skip the light's triangle in every packet
+  // they test).
+  static int lanes_of_triangle(const LeafPacket& p, uint32_t skip) {
     int m = 0;
-    if (m_extra_tri.empty()) {
 #if defined(PRISM_BVH_SSE)
-      const __m128i s = _mm_set1_epi32(int(skip));
-      for (int h = 0; h < W; h += 4) {
-        __m128i e = _mm_loadu_si128(reinterpret_cast<const __m128i*>(entries + h));
-        m |= _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(e, s))) << h;
-      }
-#else
-      for (int l = 0; l < W; ++l) m |= int(entries[l] == skip) << l;
-#endif
-      return m;
+    const __m128i s = _mm_set1_epi32(int(skip));
+    for (int h = 0; h < W; h += 4) {
+      __m128i e = _mm_load_si128(reinterpret_cast<const __m128i*>(p.tri + h));
+      m |= _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(e, s))) << h;
     }
-    for (int l = 0; l < W; ++l) m |= int(triangle_of(entries[l]) == skip) << l;
+#else
+    for (int l = 0; l < W; ++l) m |= int(p.tri[l] == skip) << l;
+#endif
     return m;
   }
 
@@ -226,42 +231,41 @@ class MeshAccel {
   PRISM_FLATTEN bool intersect_axis(const Point3f& o, const detail::WideRayPrecomp& wr, Float sx, Float sy, Float sz,
                                     Float* t_max, TriangleHit* hit, uint32_t* tri) const {
     const RayTrianglePrecomp pc = shear_for<KZ>(sx, sy, sz);
-    uint32_t best = 0;
+    uint32_t best = 0;  // the triangle hit
     bool found = m_bvh.intersect_leaves(wr, *t_max, [&](uint32_t first, uint32_t count, Float& tm) {
       bool any = false;
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
-        if (auto h = intersect_packet<KZ>(m_packets[k], o, pc, tm, all_lanes)) {
+        if (auto h = intersect_packet<KZ>(m_packets[k].tris, o, pc, tm, all_lanes)) {
           tm = h->hit.t;
           *hit = h->hit;
-          best = k * W + uint32_t(h->lane);
+          best = m_packets[k].tri[h->lane];
           any = true;
         }
       }
       return any;
     });
-    if (found) *tri = triangle_of(m_bvh.prims()[best]);
+    if (found) *tri = best;
     return found;
   }
   template <int KZ>
   PRISM_FLATTEN bool occluded_axis(const Point3f& o, const detail::WideRayPrecomp& wr, Float sx, Float sy, Float sz,
                                    Float t_max, uint32_t skip) const {
     const RayTrianglePrecomp pc = shear_for<KZ>(sx, sy, sz);
-    const uint32_t* order = m_bvh.prims().data();
-    const TrianglePacket* packets = m_packets.data();
+    const LeafPacket* packets = m_packets.data();
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {
         uint32_t k = first / W + j;
         int lanes = all_lanes;
-        if (skip != UINT32_MAX) lanes &= ~lanes_of_triangle(order + size_t(k) * W, skip);
-        if (occluded_packet<KZ>(packets[k], o, pc, tm, lanes)) return true;
+        if (skip != UINT32_MAX) lanes &= ~lanes_of_triangle(packets[k], skip);
+        if (occluded_packet<KZ>(packets[k].tris, o, pc, tm, lanes)) return true;
       }
       return false;
     });
   }
 
   BVH m_bvh;
-  detail::fill_later_vector<TrianglePacket> m_packets;  // written whole by pack(), in parallel
+  detail::fill_later_vector<LeafPacket> m_packets;  // written whole by pack(), in parallel
   std::vector<uint32_t> m_extra_tri;  // pre-splitting only: extra reference n + j -> triangle
   size_t m_triangles = 0;
   int m_threads = 1;
