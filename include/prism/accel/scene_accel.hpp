@@ -205,19 +205,6 @@ class MeshAccel {
     return m;
   }
 
-  // The watertight test's set-up for a ray whose largest direction component
-  // is KZ, from its shear.
-  template <int KZ>
-  static RayTrianglePrecomp shear_for(Float sx, Float sy, Float sz) {
-    RayTrianglePrecomp pc;
-    pc.kz = KZ;
-    pc.kx = (KZ + 1) % 3;
-    pc.ky = (KZ + 2) % 3;
-    pc.sx = sx;
-    pc.sy = sy;
-    pc.sz = sz;
-    return pc;
-  }
   // The queries for a ray whose largest direction component is KZ. The
   // watertight test's axis permutation is then a compile-time constant; the
   // arithmetic is unchanged. The shear arrives as three floats, in
@@ -230,7 +217,7 @@ class MeshAccel {
   template <int KZ>
   PRISM_FLATTEN bool intersect_axis(const Point3f& o, const detail::WideRayPrecomp& wr, Float sx, Float sy, Float sz,
                                     Float* t_max, TriangleHit* hit, uint32_t* tri) const {
-    const RayTrianglePrecomp pc = shear_for<KZ>(sx, sy, sz);
+    const RayTrianglePrecomp pc(KZ, sx, sy, sz);
     uint32_t best = 0;  // the triangle hit
     bool found = m_bvh.intersect_leaves(wr, *t_max, [&](uint32_t first, uint32_t count, Float& tm) {
       bool any = false;
@@ -251,7 +238,7 @@ class MeshAccel {
   template <int KZ>
   PRISM_FLATTEN bool occluded_axis(const Point3f& o, const detail::WideRayPrecomp& wr, Float sx, Float sy, Float sz,
                                    Float t_max, uint32_t skip) const {
-    const RayTrianglePrecomp pc = shear_for<KZ>(sx, sy, sz);
+    const RayTrianglePrecomp pc(KZ, sx, sy, sz);
     const LeafPacket* packets = m_packets.data();
     return m_bvh.occluded_leaves(wr, t_max, [&](uint32_t first, uint32_t count, Float tm) {
       for (uint32_t j = 0; j * W < count; ++j) {

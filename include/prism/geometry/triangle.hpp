@@ -42,8 +42,11 @@ struct RayTrianglePrecomp {
   int kx = 0, ky = 1, kz = 2;
   Float sx = 0, sy = 0, sz = 1;
 
-  // The identity: a ray along +z.
-  RayTrianglePrecomp() = default;
+  // From a permutation's z axis and the shear computed for it already (a
+  // caller that picks code per axis hands over the three floats).
+  RayTrianglePrecomp(int z_axis, Float shear_x, Float shear_y, Float shear_z)
+      : kx(z_axis + 1 == 3 ? 0 : z_axis + 1), ky(z_axis == 0 ? 2 : z_axis - 1), kz(z_axis),
+        sx(shear_x), sy(shear_y), sz(shear_z) {}
   explicit RayTrianglePrecomp(const Vector3f& d) {
     kz = max_dimension(abs(d));
     kx = kz + 1 == 3 ? 0 : kz + 1;
