@@ -20,7 +20,9 @@
 // every s-th ray, at most --record-cap. They are traced against the same
 // flattened mesh as the other sets (CSV rows recorded_camera_<case>,
 // recorded_bounce1..3_<case>, recorded_shadow_<case>).
-// Every figure is the median over repetitions, prism and Embree alternating.
+// Every figure is the median over repetitions, prism and Embree alternating;
+// the CSV's ratio is the medians' ratio, and ratio_min / ratio_max the
+// smallest and largest ratio of one repetition's pair (the run's own spread).
 // Results are checked: hit/miss and closest-hit t (relative 1e-4) must agree
 // for more than 99.9% of the rays, otherwise a warning is printed.
 //
@@ -57,6 +59,7 @@
 #include <functional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "procedural_mesh.hpp"
@@ -695,7 +698,22 @@ struct CsvRow {
   size_t triangles;
   int threads;
   double prism, embree, ratio;
+  // The smallest and largest ratio of one repetition's pair (prism and Embree
+  // run back to back): how far the VM's drift moves the figure within a run.
+  double ratio_min, ratio_max;
 };
+
+// The ratio of each repetition's pair, Embree's time over prism's, as
+// {smallest, largest}.
+std::pair<double, double> paired_ratio_range(const std::vector<double>& t_prism, const std::vector<double>& t_embree) {
+  double lo = infinity, hi = 0;
+  for (size_t r = 0; r < t_prism.size(); ++r) {
+    double q = t_embree[r] / t_prism[r];
+    lo = std::min(lo, q);
+    hi = std::max(hi, q);
+  }
+  return {lo, hi};
+}
 
 struct Agreement {
   size_t rays = 0, hit_agree = 0, both_hit = 0, t_agree = 0, prim_agree = 0;
@@ -772,10 +790,13 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
       te.push_back(em->build());
     }
     double mp = median(tp), me = median(te);
-    std::printf("  build   threads=%d  prism %.3f s (%.2f Mtri/s)  embree %.3f s (%.2f Mtri/s)  embree/prism time %.3f\n",
-                th, mp, double(ntri) / mp * 1e-6, me, double(ntri) / me * 1e-6, me / mp);
+    auto [lo, hi] = paired_ratio_range(tp, te);
+    std::printf("  build   threads=%d  prism %.3f s (%.2f Mtri/s)  embree %.3f s (%.2f Mtri/s)  embree/prism time %.3f"
+                " (pairs %.3f..%.3f)\n",
+                th, mp, double(ntri) / mp * 1e-6, me, double(ntri) / me * 1e-6, me / mp, lo, hi);
     std::fflush(stdout);
-    rows.push_back({"build_" + case_name, ntri, th, double(ntri) / mp * 1e-6, double(ntri) / me * 1e-6, me / mp});
+    rows.push_back(
+        {"build_" + case_name, ntri, th, double(ntri) / mp * 1e-6, double(ntri) / me * 1e-6, me / mp, lo, hi});
     per.push_back({th, std::move(em)});
   }
   const MeshAccel& ma = prism_scene.mesh_accels()[0];
@@ -888,10 +909,11 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
       }
       double n = double(s.rays->size());
       double mp = n / median(tp) * 1e-6, me = n / median(te) * 1e-6;
-      std::printf("  %-28s threads=%d  prism %7.2f Mrays/s  embree %7.2f Mrays/s  ratio %.3f\n", s.name.c_str(),
-                  pt.threads, mp, me, mp / me);
+      auto [lo, hi] = paired_ratio_range(tp, te);
+      std::printf("  %-28s threads=%d  prism %7.2f Mrays/s  embree %7.2f Mrays/s  ratio %.3f (pairs %.3f..%.3f)\n",
+                  s.name.c_str(), pt.threads, mp, me, mp / me, lo, hi);
       std::fflush(stdout);
-      rows.push_back({s.name, ntri, pt.threads, mp, me, mp / me});
+      rows.push_back({s.name, ntri, pt.threads, mp, me, mp / me, lo, hi});
     }
   }
 
@@ -1088,9 +1110,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "cannot write %s\n", opt.out.c_str());
     return 1;
   }
-  std::fprintf(f, "case,triangles,threads,prism_mrays,embree_mrays,ratio\n");
+  std::fprintf(f, "case,triangles,threads,prism_mrays,embree_mrays,ratio,ratio_min,ratio_max\n");
   for (const auto& r : rows)
-    std::fprintf(f, "%s,%zu,%d,%.3f,%.3f,%.3f\n", r.name.c_str(), r.triangles, r.threads, r.prism, r.embree, r.ratio);
+    std::fprintf(f, "%s,%zu,%d,%.3f,%.3f,%.3f,%.3f,%.3f\n", r.name.c_str(), r.triangles, r.threads, r.prism, r.embree,
+                 r.ratio, r.ratio_min, r.ratio_max);
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
   fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
