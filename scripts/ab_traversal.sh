@@ -9,14 +9,18 @@
 #   twice (an A/A run) measures the harness's own spread.
 # Example: scripts/ab_traversal.sh HEAD            (the uncommitted change)
 #          scripts/ab_traversal.sh HEAD~3 HEAD --reps 40
-# Needs a C++20 compiler (CXX, default c++); compiled with -O3 -march=native.
+# Needs a C++20 compiler (CXX, default c++); compiled with -O3 -march=$ARCH
+# (ARCH defaults to native; x86-64-v2 is SSE4.2, x86-64-v3 AVX2 and FMA).
 # CXX_A and CXX_B, if set, compile the two sides (one revision under two
 # compilers: scripts/ab_traversal.sh HEAD HEAD with CXX_B=clang++).
+# FLAGS_A and FLAGS_B, if set, are extra flags for one side (4-wide against
+# 8-wide nodes: scripts/ab_traversal.sh HEAD HEAD with
+# FLAGS_B=-DPRISM_BVH_WIDTH=4).
 # Exit status 1 when the two versions' hits differ.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ $# -lt 1 ] || [[ "$1" == -* ]]; then
-  sed -n 2,13p "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n 2,19p "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 a=$1
@@ -41,11 +45,11 @@ export_include() {  # revision, directory
 export_include "$a" "$tmp/a"
 export_include "$b" "$tmp/b"
 cxx=${CXX:-c++}
-flags=(-std=gnu++20 -O3 -DNDEBUG -march=native -Ibench)
-echo "ab_traversal: A = $a (${CXX_A:-$cxx}), B = $b (${CXX_B:-$cxx}); compiling..."
-"${CXX_A:-$cxx}" "${flags[@]}" -Dprism=prism_ab_a -DAB_SIDE=a -I"$tmp/a/include" -c bench/ab_traversal.cpp -o "$tmp/a.o" &
+flags=(-std=gnu++20 -O3 -DNDEBUG "-march=${ARCH:-native}" -Ibench)
+echo "ab_traversal: A = $a (${CXX_A:-$cxx} ${FLAGS_A:-}), B = $b (${CXX_B:-$cxx} ${FLAGS_B:-}), -march=${ARCH:-native}; compiling..."
+"${CXX_A:-$cxx}" "${flags[@]}" ${FLAGS_A:-} -Dprism=prism_ab_a -DAB_SIDE=a -I"$tmp/a/include" -c bench/ab_traversal.cpp -o "$tmp/a.o" &
 pa=$!
-"${CXX_B:-$cxx}" "${flags[@]}" -Dprism=prism_ab_b -DAB_SIDE=b -I"$tmp/b/include" -c bench/ab_traversal.cpp -o "$tmp/b.o" &
+"${CXX_B:-$cxx}" "${flags[@]}" ${FLAGS_B:-} -Dprism=prism_ab_b -DAB_SIDE=b -I"$tmp/b/include" -c bench/ab_traversal.cpp -o "$tmp/b.o" &
 pb=$!
 "$cxx" "${flags[@]}" -DAB_MAIN -c bench/ab_traversal.cpp -o "$tmp/main.o"
 wait $pa
