@@ -638,6 +638,53 @@ TEST_CASE("SceneAccel occluded agrees with intersect through instances", "[accel
   CHECK(hits > n / 20);
 }
 
+TEST_CASE("a scene of one mesh answers as the same mesh among other instances", "[accel][scene]") {
+  // A lone untransformed mesh takes SceneAccel's shortcut to its MeshAccel;
+  // the same mesh beside a sphere far from every ray goes through the top
+  // level. Both must give the same hits, and honour the same skips.
+  PCG32 rng(21, 0xb0b);
+  Soup s = random_soup(3000, rng);
+  SceneAccel lone, shared;
+  lone.add_mesh_instance(lone.add_mesh(s.mesh()));
+  shared.add_mesh_instance(shared.add_mesh(s.mesh()));
+  shared.add_sphere({{1e4f, 1e4f, 1e4f}, 1});
+  lone.build();
+  shared.build();
+  const MeshAccel& mesh = lone.mesh_accels()[0];
+  size_t hits = 0, differ = 0, skips_tested = 0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    Ray r = random_ray(rng, s);
+    std::optional<Hit> a = lone.intersect(r), b = shared.intersect(r);
+    Float tm = infinity;
+    TriangleHit th{};
+    uint32_t tri = 0;
+    bool direct = mesh.intersect(r.o, r.d, &tm, &th, &tri);
+    if (a.has_value() != b.has_value() || a.has_value() != direct) {
+      ++differ;
+      continue;
+    }
+    Float probe = uniform(rng, 0, 30);
+    if (lone.occluded(r, probe) != shared.occluded(r, probe)) ++differ;
+    if (!a) continue;
+    ++hits;
+    if (a->t != b->t || a->primitive != b->primitive || a->instance != 0 || b->instance != 0 || a->b0 != b->b0 ||
+        a->b1 != b->b1 || a->t != tm || a->primitive != tri)
+      ++differ;
+    // Skipping the hit triangle of instance 0 (the only one that can skip it),
+    // and a skip aimed at another instance, which must change nothing.
+    Float beyond = a->t * 1.5f;
+    ++skips_tested;
+    if (lone.occluded(r, beyond, 0, a->primitive) != shared.occluded(r, beyond, 0, a->primitive)) ++differ;
+    if (lone.occluded(r, beyond, 0, a->primitive) != mesh.occluded(r.o, r.d, beyond, a->primitive)) ++differ;
+    if (!lone.occluded(r, beyond, 1, a->primitive) || !shared.occluded(r, beyond, 1, a->primitive)) ++differ;
+  }
+  INFO("hits " << hits << " of " << n);
+  CHECK(differ == 0);
+  CHECK(hits > n / 20);
+  CHECK(skips_tested == hits);
+}
+
 TEST_CASE("a deforming mesh after refit gives the hits of a rebuild", "[accel][bvh][refit]") {
   PCG32 rng(9, 0xb0b);
   Soup s = random_soup(3000, rng);
