@@ -30,9 +30,9 @@ with open(os.path.join(results, "traversal.csv")) as f:
 if not order:
     sys.exit("plot_traversal.py: no rows in " + os.path.join(results, "traversal.csv"))
 
+nan = (float("nan"),) * 3  # a thread count the file lacks
 with tempfile.NamedTemporaryFile("w", suffix=".dat", delete=False) as d:
     for case in order:
-        nan = (float("nan"),) * 3
         one = " ".join(str(x) for x in ratios[case].get(1, nan))
         two = " ".join(str(x) for x in ratios[case].get(2, nan))
         label = case.replace("metalroughspheres", "spheres").replace("_", " ")

@@ -651,7 +651,7 @@ TEST_CASE("a scene of one mesh answers as the same mesh among other instances", 
   lone.build();
   shared.build();
   const MeshAccel& mesh = lone.mesh_accels()[0];
-  size_t hits = 0, differ = 0, skips_tested = 0;
+  size_t hits = 0, differ = 0;
   const int n = 20000;
   for (int i = 0; i < n; ++i) {
     Ray r = random_ray(rng, s);
@@ -674,7 +674,6 @@ TEST_CASE("a scene of one mesh answers as the same mesh among other instances", 
     // Skipping the hit triangle of instance 0 (the only one that can skip it),
     // and a skip aimed at another instance, which must change nothing.
     Float beyond = a->t * 1.5f;
-    ++skips_tested;
     if (lone.occluded(r, beyond, 0, a->primitive) != shared.occluded(r, beyond, 0, a->primitive)) ++differ;
     if (lone.occluded(r, beyond, 0, a->primitive) != mesh.occluded(r.o, r.d, beyond, a->primitive)) ++differ;
     if (!lone.occluded(r, beyond, 1, a->primitive) || !shared.occluded(r, beyond, 1, a->primitive)) ++differ;
@@ -682,7 +681,6 @@ TEST_CASE("a scene of one mesh answers as the same mesh among other instances", 
   INFO("hits " << hits << " of " << n);
   CHECK(differ == 0);
   CHECK(hits > n / 20);
-  CHECK(skips_tested == hits);
 }
 
 TEST_CASE("a deforming mesh after refit gives the hits of a rebuild", "[accel][bvh][refit]") {

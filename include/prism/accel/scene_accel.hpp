@@ -471,7 +471,8 @@ class SceneAccel {
     return best;
   }
 
-  PRISM_NOINLINE bool occluded_instances(const Ray& ray, Float t_max, uint32_t skip_instance, uint32_t skip_primitive) const {
+  PRISM_NOINLINE bool occluded_instances(const Ray& ray, Float t_max, uint32_t skip_instance,
+                                         uint32_t skip_primitive) const {
     const BVH& top = top_for(ray.time);
     if (top.empty()) return false;
     detail::WideRayPrecomp wr(ray.o, ray.d);
