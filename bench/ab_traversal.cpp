@@ -104,6 +104,7 @@ void AB_FN(ab_setup)(int res) {
 }
 
 size_t AB_FN(ab_count)(int kind) { return state->rays[kind].o.size(); }
+size_t AB_FN(ab_triangles)() { return state->mesh.triangle_count(); }
 
 // The rays as 7 floats each (origin, direction, t_max), so that B traces A's
 // rays bit for bit: each side's set-up code is compiled on its own, and may
@@ -147,6 +148,18 @@ double AB_FN(ab_trace)(int kind, double* check) {
   return seconds;
 }
 
+// Seconds to build the mesh's MeshAccel (default options) on `threads`
+// threads; *check gets the wide node count (equal when the trees are).
+double AB_FN(ab_build)(int threads, double* check) {
+  BVHBuildOptions opt;
+  opt.threads = threads;
+  auto start = std::chrono::steady_clock::now();
+  MeshAccel accel(state->mesh, opt);
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  *check = double(accel.bvh().wide_node_count());
+  return seconds;
+}
+
 #elif defined(AB_MAIN)
 #include <algorithm>
 #include <cmath>
@@ -163,17 +176,23 @@ std::vector<float> ab_export_a(int kind);
 void ab_import_b(int kind, const std::vector<float>& v);
 double ab_trace_a(int kind, double* check);
 double ab_trace_b(int kind, double* check);
+double ab_build_a(int threads, double* check);
+size_t ab_triangles_a();
+double ab_build_b(int threads, double* check);
 
 int main(int argc, char** argv) {
   int res = 724, reps = 20;
+  bool build = false;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--res" && i + 1 < argc) {
       res = std::atoi(argv[++i]);
     } else if (a == "--reps" && i + 1 < argc) {
       reps = std::atoi(argv[++i]);
+    } else if (a == "--build") {
+      build = true;
     } else {
-      std::fprintf(stderr, "usage: ab_traversal [--res N (724)] [--reps N (20)]\n");
+      std::fprintf(stderr, "usage: ab_traversal [--res N (724)] [--reps N (20)] [--build]\n");
       return 2;
     }
   }
@@ -184,21 +203,23 @@ int main(int argc, char** argv) {
   ab_setup_a(res);
   ab_setup_b(res);
   for (int kind = 0; kind < 4; ++kind) ab_import_b(kind, ab_export_a(kind));
-  const char* names[4] = {"primary", "incoherent", "shadow", "scattered"};
   std::printf("%d reps, A then B alternating with B then A; speed-up = time A / time B per repetition\n", reps);
   int status = 0;
-  for (int kind = 0; kind < 4; ++kind) {
+  // Times A and B alternately; `per_rep` items per repetition for the rate.
+  // A differing check fails the run when `strict` (rays must give the same
+  // hits); for builds it only says that the trees differ.
+  auto measure = [&](const char* name, auto&& run_a, auto&& run_b, double per_rep, const char* unit, bool strict) {
     std::vector<double> ratio;
     double time_a = 0, time_b = 0;
     bool differ = false;
     for (int i = 0; i < reps; ++i) {
       double ca = 0, cb = 0, ta, tb;
       if (i % 2 == 0) {
-        ta = ab_trace_a(kind, &ca);
-        tb = ab_trace_b(kind, &cb);
+        ta = run_a(&ca);
+        tb = run_b(&cb);
       } else {
-        tb = ab_trace_b(kind, &cb);
-        ta = ab_trace_a(kind, &ca);
+        tb = run_b(&cb);
+        ta = run_a(&ca);
       }
       if (ca != cb) differ = true;
       ratio.push_back(ta / tb);
@@ -211,12 +232,24 @@ int main(int argc, char** argv) {
     for (double r : ratio) var += (r - mean) * (r - mean);
     double se = std::sqrt(var / (reps - 1) / reps);
     std::sort(ratio.begin(), ratio.end());
-    double rays = double(ab_count_a(kind)) * reps;
-    std::printf("%-10s %8zu rays  A %6.3f  B %6.3f Mrays/s  speed-up B/A %.4f +- %.4f (median %.4f, %.3f..%.3f)%s\n",
-                names[kind], ab_count_a(kind), rays / time_a * 1e-6, rays / time_b * 1e-6, mean, se,
+    double items = per_rep * reps;
+    std::printf("%-10s %8.0f %-6s A %6.3f  B %6.3f M%s/s  speed-up B/A %.4f +- %.4f (median %.4f, %.3f..%.3f)%s\n",
+                name, per_rep, unit, items / time_a * 1e-6, items / time_b * 1e-6, unit, mean, se,
                 ratio[ratio.size() / 2], ratio.front(), ratio.back(),
-                differ ? "  RESULTS DIFFER" : "");
-    if (differ) status = 1;
+                differ ? (strict ? "  RESULTS DIFFER" : "  (trees differ)") : "");
+    if (differ && strict) status = 1;
+  };
+  const char* names[4] = {"primary", "incoherent", "shadow", "scattered"};
+  for (int kind = 0; kind < 4; ++kind)
+    measure(
+        names[kind], [&](double* c) { return ab_trace_a(kind, c); }, [&](double* c) { return ab_trace_b(kind, c); },
+        double(ab_count_a(kind)), "rays", true);
+  if (build) {
+    const double tris = double(ab_triangles_a());
+    for (int threads = 1; threads <= 2; ++threads)
+      measure(
+          threads == 1 ? "build 1t" : "build 2t", [&](double* c) { return ab_build_a(threads, c); },
+          [&](double* c) { return ab_build_b(threads, c); }, tris, "tris", false);
   }
   return status;
 }

@@ -2,7 +2,7 @@
 # scripts/ab_traversal.sh — prism's ray queries, one version against another,
 # in one process (bench/ab_traversal.cpp says how and why).
 #
-# Usage: scripts/ab_traversal.sh A [B] [--res N] [--reps N]
+# Usage: scripts/ab_traversal.sh A [B] [--res N] [--reps N] [--build]
 #   A, B: git revisions (anything `git archive` takes), "worktree" for the
 #   include/ of the working tree, or a directory holding an include/ (a copy
 #   with an experiment); B defaults to worktree. The same revision
@@ -16,6 +16,8 @@
 # FLAGS_A and FLAGS_B, if set, are extra flags for one side (4-wide against
 # 8-wide nodes: scripts/ab_traversal.sh HEAD HEAD with
 # FLAGS_B=-DPRISM_BVH_WIDTH=4).
+# --build also times the mesh's MeshAccel build on 1 and 2 threads, A and B
+# alternated (the trees may differ: that is reported, not a failure).
 # Exit status 1 when the two versions' hits differ.
 set -euo pipefail
 cd "$(dirname "$0")/.."
