@@ -6,18 +6,22 @@
 //
 // The last column, pair_speedup, is what the machine itself gives two
 // threads at that moment: two 1-thread renders run side by side, each with
-// its own film and nothing shared but the (read-only) scene, against one
-// alone (2 x its median time / the pair's median wall time). On a virtual
-// machine whose second vCPU is slower or busier at times, this is the
-// ceiling of the 2-thread speedup: the render loop's own cost of going
-// parallel is the gap between the two.
+// its own film and nothing shared but the (read-only) scene, their speeds
+// added up in units of one render alone (t1 / t_a + t1 / t_b, t1 the median
+// time alone, t_a and t_b each render's own time; the median over the runs).
+// It says how much of a 2-thread speedup below 2 the machine accounts for:
+// on a virtual machine whose second vCPU is slower or busier at times, both
+// figures fall together. (It is not a strict ceiling: the 2-thread render
+// hands the faster vCPU more tiles, while each render of the pair has a
+// fixed amount of work, and the one that finishes first leaves the other
+// the machine to itself.)
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 #include <prism/prism.hpp>
 
@@ -43,14 +47,14 @@ prism::RenderStats render_once(const prism::Scene<S>& scene, int threads) {
   return render(scene, cam, PathIntegrator{}, film, opt);
 }
 
-// Wall seconds of two 1-thread renders of the scene run at once.
+// Each render's own seconds, of two 1-thread renders of the scene run at once.
 template <class S>
-double pair_seconds(const prism::Scene<S>& scene) {
-  auto t0 = std::chrono::steady_clock::now();
-  std::thread other([&] { render_once(scene, 1); });
-  render_once(scene, 1);
+std::pair<double, double> pair_seconds(const prism::Scene<S>& scene) {
+  double other_seconds = 0;
+  std::thread other([&] { other_seconds = render_once(scene, 1).seconds; });
+  double seconds = render_once(scene, 1).seconds;
   other.join();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return {seconds, other_seconds};
 }
 
 double median(std::vector<double> v) {
@@ -79,7 +83,7 @@ int main(int argc, char** argv) {
   // phase of the (virtual) machine hits every configuration alike; each
   // figure is the median of its runs.
   std::vector<prism::RenderStats> st[2][2];
-  std::vector<double> pair[2];
+  std::vector<std::pair<double, double>> pair[2];
   for (int r = 0; r < runs; ++r) {
     for (int t = 0; t < 2; ++t) {
       st[0][t].push_back(render_once(rgb_scene, t + 1));
@@ -101,7 +105,12 @@ int main(int argc, char** argv) {
   for (const Row& r : rows) {
     const Row& one = std::string(r.colour) == "rgb" ? rows[0] : rows[2];
     const Row& rgb_same_threads = rows[size_t(r.threads - 1)];
-    const double pair_speedup = r.threads == 1 ? 1.0 : 2 * one.seconds / median(pair[&one == &rows[0] ? 0 : 1]);
+    double pair_speedup = 1.0;
+    if (r.threads == 2) {
+      std::vector<double> sums;
+      for (auto [a, b] : pair[&one == &rows[0] ? 0 : 1]) sums.push_back(one.seconds / a + one.seconds / b);
+      pair_speedup = median(sums);
+    }
     char line[256];
     std::snprintf(line, sizeof line, "default,%s,path,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f\n", r.colour,
                   r.threads, width, height, spp, r.seconds, r.msamples, r.mrays, one.seconds / r.seconds,
