@@ -1,5 +1,6 @@
 // prism/prism.hpp — the umbrella header: every module except the opt-in io/.
 #pragma once
+#include "prism/attributes.hpp"
 #include "prism/error.hpp"
 #include "prism/math/float.hpp"
 #include "prism/math/interval.hpp"

@@ -17,29 +17,11 @@
 #include "prism/accel/bvh.hpp"
 #include "prism/accel/presplit.hpp"
 #include "prism/accel/triangle_packet.hpp"
+#include "prism/attributes.hpp"
 #include "prism/error.hpp"
 #include "prism/math/animated_transform.hpp"
 #include "prism/geometry/sphere.hpp"
 #include "prism/geometry/triangle.hpp"
-
-// Inlines everything a function calls (the traversal loop, the callback and
-// the triangle test), so that per-ray constants fold into the loop.
-#ifndef PRISM_FLATTEN
-#if defined(__GNUC__) || defined(__clang__)
-#define PRISM_FLATTEN [[gnu::flatten]]
-#else
-#define PRISM_FLATTEN
-#endif
-#endif
-// Keeps a function out of its callers (the top-level queries: the callers'
-// own code stays small, and the lone-mesh path inlines alone).
-#ifndef PRISM_NOINLINE
-#if defined(__GNUC__) || defined(__clang__)
-#define PRISM_NOINLINE [[gnu::noinline]]
-#else
-#define PRISM_NOINLINE
-#endif
-#endif
 
 namespace prism {
 

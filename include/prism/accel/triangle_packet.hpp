@@ -16,6 +16,7 @@
 #pragma once
 #include <cstdint>
 #include <optional>
+#include "prism/attributes.hpp"
 #include "prism/geometry/triangle.hpp"
 
 // The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4 or
@@ -74,11 +75,8 @@ namespace detail {
 
 // Out of line: lanes reach it only when single precision cannot decide
 // (rarely), and the traversal loops that inline the packet test stay small.
-#if defined(__GNUC__) || defined(__clang__)
-[[gnu::noinline, gnu::cold]]
-#endif
-inline std::optional<TriangleHit> intersect_lane(const TrianglePacket& p, int lane, const Point3f& o,
-                                                 const RayTrianglePrecomp& pc, Float t_max) {
+PRISM_COLD inline std::optional<TriangleHit> intersect_lane(const TrianglePacket& p, int lane, const Point3f& o,
+                                                            const RayTrianglePrecomp& pc, Float t_max) {
   return intersect_triangle(o, pc, t_max, p.vertex(lane, 0), p.vertex(lane, 1), p.vertex(lane, 2));
 }
 
