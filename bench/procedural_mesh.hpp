@@ -4,6 +4,7 @@
 // Also the pinhole raster and the incoherent rays from its hits that
 // ab_traversal and tree_compare trace.
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -82,6 +83,43 @@ inline Vector3f raster_direction(int x, int y, int res) {
   return normalize(Vector3f{(Float(x) + 0.5f) / Float(res) * 0.8f - 0.45f,
                             0.35f - (Float(y) + 0.5f) / Float(res) * 0.8f, -1.0f});
 }
+// traversal_bench's primary rays: a pinhole camera looking at the centre of
+// box b (the mesh's bounds) from direction view_dir, at 2.5 times the box's
+// half diagonal, its image window fitted to the projected vertices (1%
+// margin) so that it frames the mesh.
+struct FramingCamera {
+  Point3f eye;
+  Frame f;
+  Float x0 = infinity, x1 = -infinity, y0 = infinity, y1 = -infinity;
+  FramingCamera(const TriangleMesh& mesh, const Bounds3f& b, Vector3f view_dir) {
+    Point3f c = b.centroid();
+    Float radius = 0.5f * length(b.diagonal());
+    Vector3f w = normalize(view_dir);  // from the target towards the eye
+    eye = c + w * (2.5f * radius);
+    f = Frame::from_z(-w);
+    for (const Point3f& p : mesh.positions) {
+      Vector3f l = f.to_local(p - eye);
+      x0 = std::min(x0, l.x / l.z);
+      x1 = std::max(x1, l.x / l.z);
+      y0 = std::min(y0, l.y / l.z);
+      y1 = std::max(y1, l.y / l.z);
+    }
+    Float margin = 0.01f * std::max(x1 - x0, y1 - y0);
+    x0 -= margin;
+    x1 += margin;
+    y0 -= margin;
+    y1 += margin;
+  }
+  // Pixel (x, y) of a res x res raster: the ray's direction.
+  Vector3f direction(int x, int y, int res) const {
+    Float sx = x0 + (x1 - x0) * (Float(x) + 0.5f) / Float(res);
+    Float sy = y1 - (y1 - y0) * (Float(y) + 0.5f) / Float(res);
+    return normalize(f.from_local({sx, sy, 1}));
+  }
+};
+// The view direction of traversal_bench's procedural case.
+inline constexpr Float procedural_view[3] = {0.55f, 0.35f, 0.75f};
+
 // The pixel's random stream (rays derived from its hit).
 inline PCG32 pixel_rng(int x, int y, int res) { return PCG32(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed); }
 

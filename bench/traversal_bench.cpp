@@ -338,32 +338,13 @@ struct BenchRay {
   Float t_max;
 };
 
-// Pinhole camera looking at the mesh's centre from direction view_dir, the
-// image window fitted to the projected vertices so that it frames the object.
+// traversal_bench's pinhole camera (procedural_mesh.hpp), res x res rays in raster order.
 std::vector<BenchRay> primary_rays(const TriangleMesh& mesh, const Bounds3f& b, Vector3f view_dir, int res) {
-  Point3f c = b.centroid();
-  Float radius = 0.5f * length(b.diagonal());
-  Vector3f w = normalize(view_dir);  // from the target towards the eye
-  Point3f eye = c + w * (2.5f * radius);
-  Frame f = Frame::from_z(-w);
-  Float x0 = infinity, x1 = -infinity, y0 = infinity, y1 = -infinity;
-  for (const Point3f& p : mesh.positions) {
-    Vector3f l = f.to_local(p - eye);
-    x0 = std::min(x0, l.x / l.z);
-    x1 = std::max(x1, l.x / l.z);
-    y0 = std::min(y0, l.y / l.z);
-    y1 = std::max(y1, l.y / l.z);
-  }
-  Float margin = 0.01f * std::max(x1 - x0, y1 - y0);
-  x0 -= margin; x1 += margin; y0 -= margin; y1 += margin;
+  const prism_bench::FramingCamera cam(mesh, b, view_dir);
   std::vector<BenchRay> rays;
   rays.reserve(size_t(res) * size_t(res));
   for (int y = 0; y < res; ++y)
-    for (int x = 0; x < res; ++x) {
-      Float sx = x0 + (x1 - x0) * (Float(x) + 0.5f) / Float(res);
-      Float sy = y1 - (y1 - y0) * (Float(y) + 0.5f) / Float(res);
-      rays.push_back({eye, normalize(f.from_local({sx, sy, 1})), infinity});
-    }
+    for (int x = 0; x < res; ++x) rays.push_back({cam.eye, cam.direction(x, y, res), infinity});
   return rays;
 }
 
@@ -1035,7 +1016,10 @@ int main(int argc, char** argv) {
     // "procedural" row), whatever size --procedural-n gives the traversal rows.
     constexpr int watertight_n = 289;
     TriangleMesh sphere = make_displaced_sphere(opt.runs("procedural") ? opt.procedural_n : watertight_n);
-    if (opt.runs("procedural")) run_case("procedural", sphere, {0.55f, 0.35f, 0.75f}, opt, rows);
+    if (opt.runs("procedural"))
+      run_case("procedural", sphere,
+               {prism_bench::procedural_view[0], prism_bench::procedural_view[1], prism_bench::procedural_view[2]}, opt,
+               rows);
     if (opt.runs("watertight")) {
       if (opt.runs("procedural") && opt.procedural_n != watertight_n) sphere = make_displaced_sphere(watertight_n);
       wt.push_back(run_watertight("procedural", sphere, 1000000));
