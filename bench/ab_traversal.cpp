@@ -103,8 +103,7 @@ void AB_FN(ab_setup)(int res) {
     std::swap(s.d[i - 1], s.d[j]);
     std::swap(s.t_max[i - 1], s.t_max[j]);
   }
-  const Float* v = prism_bench::procedural_view;
-  const prism_bench::FramingCamera cam(state->mesh, state->accel.bounds(), {v[0], v[1], v[2]});
+  const prism_bench::FramingCamera cam(state->mesh, state->accel.bounds(), prism_bench::procedural_view);
   constexpr int framed_res = 1024;  // traversal_bench's default --res
   for (int y = 0; y < framed_res; ++y)
     for (int x = 0; x < framed_res; ++x) state->rays[4].add(cam.eye, cam.direction(x, y, framed_res), infinity);
@@ -183,8 +182,8 @@ std::vector<float> ab_export_a(int kind);
 void ab_import_b(int kind, const std::vector<float>& v);
 double ab_trace_a(int kind, double* check);
 double ab_trace_b(int kind, double* check);
-double ab_build_a(int threads, double* check);
 size_t ab_triangles_a();
+double ab_build_a(int threads, double* check);
 double ab_build_b(int threads, double* check);
 
 int main(int argc, char** argv) {

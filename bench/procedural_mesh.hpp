@@ -2,7 +2,8 @@
 // cube-sphere displaced by fractal value noise (deterministic). Shared by
 // traversal_bench.cpp and ab_traversal.cpp, so both trace the same triangles.
 // Also the pinhole raster and the incoherent rays from its hits that
-// ab_traversal and tree_compare trace.
+// ab_traversal and tree_compare trace, and traversal_bench's framing camera
+// (which ab_traversal's "framed" rays use too).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -118,7 +119,7 @@ struct FramingCamera {
   }
 };
 // The view direction of traversal_bench's procedural case.
-inline constexpr Float procedural_view[3] = {0.55f, 0.35f, 0.75f};
+inline const Vector3f procedural_view{0.55f, 0.35f, 0.75f};
 
 // The pixel's random stream (rays derived from its hit).
 inline PCG32 pixel_rng(int x, int y, int res) { return PCG32(uint64_t(y) * uint64_t(res) + uint64_t(x), 0x5eed); }

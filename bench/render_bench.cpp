@@ -93,8 +93,14 @@ int main(int argc, char** argv) {
     pair[1].push_back(pair_seconds(spectral_scene));
   }
   std::vector<Row> rows;
-  for (int c = 0; c < 2; ++c)
+  double pair_speedup[2];  // per colour model
+  for (int c = 0; c < 2; ++c) {
     for (int t = 0; t < 2; ++t) rows.push_back(median_row(c == 0 ? "rgb" : "spectral", t + 1, st[c][t]));
+    const double alone = rows[size_t(2 * c)].seconds;  // the 1-thread row
+    std::vector<double> sums;
+    for (auto [a, b] : pair[c]) sums.push_back(alone / a + alone / b);
+    pair_speedup[c] = median(sums);
+  }
   std::filesystem::create_directories(std::filesystem::path(out_path).parent_path());
   std::ofstream csv(out_path);
   const char* header =
@@ -102,19 +108,15 @@ int main(int argc, char** argv) {
       "cost_vs_rgb,pair_speedup\n";
   csv << header;
   std::printf("%s", header);
-  for (const Row& r : rows) {
-    const Row& one = std::string(r.colour) == "rgb" ? rows[0] : rows[2];
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    const size_t c = i / 2;  // colour model: rows are rgb 1, 2 threads, then spectral 1, 2
+    const Row& one = rows[2 * c];
     const Row& rgb_same_threads = rows[size_t(r.threads - 1)];
-    double pair_speedup = 1.0;
-    if (r.threads == 2) {
-      std::vector<double> sums;
-      for (auto [a, b] : pair[&one == &rows[0] ? 0 : 1]) sums.push_back(one.seconds / a + one.seconds / b);
-      pair_speedup = median(sums);
-    }
     char line[256];
     std::snprintf(line, sizeof line, "default,%s,path,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f\n", r.colour,
                   r.threads, width, height, spp, r.seconds, r.msamples, r.mrays, one.seconds / r.seconds,
-                  r.seconds / rgb_same_threads.seconds, pair_speedup);
+                  r.seconds / rgb_same_threads.seconds, r.threads == 2 ? pair_speedup[c] : 1.0);
     csv << line;
     std::fputs(line, stdout);
   }

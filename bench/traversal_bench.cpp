@@ -1017,9 +1017,7 @@ int main(int argc, char** argv) {
     constexpr int watertight_n = 289;
     TriangleMesh sphere = make_displaced_sphere(opt.runs("procedural") ? opt.procedural_n : watertight_n);
     if (opt.runs("procedural"))
-      run_case("procedural", sphere,
-               {prism_bench::procedural_view[0], prism_bench::procedural_view[1], prism_bench::procedural_view[2]}, opt,
-               rows);
+      run_case("procedural", sphere, prism_bench::procedural_view, opt, rows);
     if (opt.runs("watertight")) {
       if (opt.runs("procedural") && opt.procedural_n != watertight_n) sphere = make_displaced_sphere(watertight_n);
       wt.push_back(run_watertight("procedural", sphere, 1000000));
