@@ -20,15 +20,21 @@
 // every s-th ray, at most --record-cap. They are traced against the same
 // flattened mesh as the other sets (CSV rows recorded_camera_<case>,
 // recorded_bounce1..3_<case>, recorded_shadow_<case>).
-// Every figure is the median over repetitions, prism and Embree alternating;
-// the CSV's ratio is the medians' ratio, and ratio_min / ratio_max the
-// smallest and largest ratio of one repetition's pair (the run's own spread).
+// Every figure is the median over repetitions (6 by default), each a pair of
+// runs of prism and Embree back to back. Which runs first alternates from one
+// repetition to the next (--first), as in scripts/ab_traversal.sh: on this
+// project's VM the order moved the primary-ray ratio by up to 8%
+// (docs/performance.md, twenty-third step), so a fixed order could bias it
+// either way. The CSV's ratio is
+// the medians' ratio, and ratio_min / ratio_max the smallest and largest
+// ratio of one repetition's pair (the run's own spread).
 // Results are checked: hit/miss and closest-hit t (relative 1e-4) must agree
 // for more than 99.9% of the rays, otherwise a warning is printed.
 //
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
 //                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
 //                        [--split-budget F] [--cases LIST] [--embree-config STR] [--procedural-n N]
+//                        [--first alternate|prism|embree]
 // --embree-config is appended to Embree's device configuration (isa=avx2 holds
 // it to its AVX2 kernels); --procedural-n sets the procedural mesh's size for
 // the traversal rows (12 N^2 triangles; small meshes keep the BVH in cache).
@@ -636,7 +642,7 @@ WatertightRow run_watertight(const std::string& name, const TriangleMesh& mesh, 
 // ------------------------------------------------------------ the driver
 
 struct Options {
-  int reps = 5;
+  int reps = 6;  // even, so that each library runs first in half the pairs
   int res = 1024;
   std::vector<int> threads = {1, 2};
   std::string out = "bench/results/traversal.csv";
@@ -657,6 +663,10 @@ struct Options {
   // make_displaced_sphere's resolution for the procedural case (12 n^2
   // triangles; 289: about 1M). Smaller meshes show the ratio with the BVH in cache.
   int procedural_n = 289;
+  // Which library runs first in each repetition's pair (--first): "alternate"
+  // (prism in even repetitions, Embree in odd ones), "prism" or "embree".
+  std::string first = "alternate";
+  bool prism_first(int rep) const { return first == "prism" || (first == "alternate" && rep % 2 == 0); }
   bool runs(const char* name) const {
     for (size_t p = 0; p <= cases.size();) {
       size_t q = cases.find(',', p);
@@ -756,7 +766,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
   };
   std::vector<PerThreads> per;
 
-  // Build: median of reps, prism and Embree alternating.
+  // Build: median of reps, prism and Embree back to back, the first alternating.
   for (int th : opt.threads) {
     auto em = std::make_unique<EmbreeScene>(mesh, th, opt.embree_config, embree_quality);
     std::vector<double> tp, te;
@@ -765,10 +775,18 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     bo.split_budget = opt.split_budget;
     bo.spatial_splits = opt.spatial_splits;
     for (int r = 0; r < std::max(3, opt.reps); ++r) {
-      double t0 = now_seconds();
-      prism_scene.build(bo);
-      tp.push_back(now_seconds() - t0);
-      te.push_back(em->build());
+      auto build_prism = [&] {
+        double t0 = now_seconds();
+        prism_scene.build(bo);
+        tp.push_back(now_seconds() - t0);
+      };
+      if (opt.prism_first(r)) {
+        build_prism();
+        te.push_back(em->build());
+      } else {
+        te.push_back(em->build());
+        build_prism();
+      }
     }
     double mp = median(tp), me = median(te);
     auto [lo, hi] = paired_ratio_range(tp, te);
@@ -873,20 +891,30 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
       std::vector<double> tp, te;
       std::vector<HitRecord> hr;
       std::vector<uint8_t> oc;
-      for (int r = 0; r < opt.reps; ++r) {
+      auto run_prism = [&] {
         double t0 = now_seconds();
         if (s.closest)
           trace_prism(prism_scene, *s.rays, pt.threads, hr);
         else
           occluded_prism(prism_scene, *s.rays, pt.threads, oc);
-        double t1 = now_seconds();
+        tp.push_back(now_seconds() - t0);
+      };
+      auto run_embree = [&] {
+        double t0 = now_seconds();
         if (s.closest)
           trace_embree(es, *s.rays, pt.threads, hr);
         else
           occluded_embree(es, *s.rays, pt.threads, oc);
-        double t2 = now_seconds();
-        tp.push_back(t1 - t0);
-        te.push_back(t2 - t1);
+        te.push_back(now_seconds() - t0);
+      };
+      for (int r = 0; r < opt.reps; ++r) {
+        if (opt.prism_first(r)) {
+          run_prism();
+          run_embree();
+        } else {
+          run_embree();
+          run_prism();
+        }
       }
       double n = double(s.rays->size());
       double mp = n / median(tp) * 1e-6, me = n / median(te) * 1e-6;
@@ -981,6 +1009,12 @@ int main(int argc, char** argv) {
       opt.cases = next();
     } else if (a == "--embree-config") {
       opt.embree_config = next();
+    } else if (a == "--first") {
+      opt.first = next();
+      if (opt.first != "alternate" && opt.first != "prism" && opt.first != "embree") {
+        std::fprintf(stderr, "--first takes alternate, prism or embree, not %s\n", opt.first.c_str());
+        return 2;
+      }
     } else if (a == "--procedural-n") {
       opt.procedural_n = std::max(2, std::atoi(next().c_str()));
     } else if (a == "--threads") {
@@ -1000,7 +1034,9 @@ int main(int argc, char** argv) {
                    "       [--cases procedural,slivers,slivers_nosplit,slivers_hq,slivers_sbvh,watertight,metalroughspheres\n"
                    "        (default: all)]\n"
                    "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n"
-                   "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n",
+                   "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n"
+                   "       [--first alternate|prism|embree (which library runs first in a repetition's pair;\n"
+                   "        default alternate)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
       return a == "--help" || a == "-h" ? 0 : 2;
     }
