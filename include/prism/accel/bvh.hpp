@@ -1499,9 +1499,8 @@ class BVH {
       auto grow_left = [&](const PrimRef& p) { grow(p, lbl, lbh, lcl, lch); };
       auto grow_right = [&](const PrimRef& p) { grow(p, rbl, rbh, rcl, rch); };
 #else
-      auto left = [a, lo, k, split](const PrimRef& p) {
-        return bin_of(p.bounds().centroid()[a], lo, k) <= split;
-      };
+      // (The centroid's coordinate a as Bounds3f::centroid computes it.)
+      auto left = [a, lo, k, split](const PrimRef& p) { return bin_of((p.lo[a] + p.hi[a]) * 0.5f, lo, k) <= split; };
       auto grow = [](const PrimRef& p, Side& s) {
         Bounds3f b = p.bounds();
         s.box.grow(b);
@@ -1608,21 +1607,25 @@ class BVH {
         // Adds the primitives of [b0, e0) to the bins bb, bn.
         auto bin_range = [&](uint32_t b0, uint32_t e0, BoxAcc (*bb)[bin_count], uint32_t (*bn)[bin_count]) {
 #ifdef PRISM_BVH_SSE
-          // (Usually all three axes are binned: that loop without the test.)
-          auto bin_all = [&]<bool all_axes>(std::bool_constant<all_axes>) {
-            for (uint32_t i = b0; i < e0; ++i) {
-              __m128 l, h, c;
-              alignas(16) int bi[4];
-              _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
-              for (int a = 0; a < 3; ++a) {
-                if (!all_axes && !active_axis[a]) continue;
-                ++bn[a][bi[a]];
-                bb[a][bi[a]].grow(l, h);
-              }
+          // Adds reference p to the bins bb, bn of the active axes (of all
+          // three when all_axes: the usual case, without the test).
+          auto add = [&]<bool all_axes>(std::bool_constant<all_axes>, const PrimRef& p, BoxAcc(*to_b)[bin_count],
+                                        uint32_t(*to_n)[bin_count]) {
+            __m128 l, h, c;
+            alignas(16) int bi[4];
+            _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(p, l, h, c));
+            for (int a = 0; a < 3; ++a) {
+              if (!all_axes && !active_axis[a]) continue;
+              ++to_n[a][bi[a]];
+              to_b[a][bi[a]].grow(l, h);
             }
           };
-          if (active_axis[0] && active_axis[1] && active_axis[2]) {
-            if (e0 - b0 < 256) return bin_all(std::true_type{});
+          constexpr std::true_type all3{};
+          if (!(active_axis[0] && active_axis[1] && active_axis[2])) {
+            for (uint32_t i = b0; i < e0; ++i) add(std::false_type{}, r[i], bb, bn);
+          } else if (e0 - b0 < 256) {
+            for (uint32_t i = b0; i < e0; ++i) add(all3, r[i], bb, bn);
+          } else {
             // Consecutive references mostly fall in the same bins, so each
             // bin's update waits on the one before through memory: two sets
             // of bins, for the even and odd references, halve that chain.
@@ -1630,33 +1633,15 @@ class BVH {
             uint32_t on[3][bin_count] = {};
             uint32_t i = b0;
             for (; i + 1 < e0; i += 2) {
-              __m128 l0, h0, c0, l1, h1, c1;
-              alignas(16) int b0i[4], b1i[4];
-              _mm_store_si128(reinterpret_cast<__m128i*>(b0i), bins_of(r[i], l0, h0, c0));
-              _mm_store_si128(reinterpret_cast<__m128i*>(b1i), bins_of(r[i + 1], l1, h1, c1));
-              for (int a = 0; a < 3; ++a) {
-                ++bn[a][b0i[a]];
-                bb[a][b0i[a]].grow(l0, h0);
-                ++on[a][b1i[a]];
-                ob[a][b1i[a]].grow(l1, h1);
-              }
+              add(all3, r[i], bb, bn);
+              add(all3, r[i + 1], ob, on);
             }
-            for (; i < e0; ++i) {
-              __m128 l, h, c;
-              alignas(16) int bi[4];
-              _mm_store_si128(reinterpret_cast<__m128i*>(bi), bins_of(r[i], l, h, c));
-              for (int a = 0; a < 3; ++a) {
-                ++bn[a][bi[a]];
-                bb[a][bi[a]].grow(l, h);
-              }
-            }
+            if (i < e0) add(all3, r[i], bb, bn);
             for (int a = 0; a < 3; ++a)
               for (int j = 0; j < bin_count; ++j) {
                 bn[a][j] += on[a][j];
                 bb[a][j].grow(ob[a][j]);
               }
-          } else {
-            bin_all(std::false_type{});
           }
 #else
           for (uint32_t i = b0; i < e0; ++i) {
