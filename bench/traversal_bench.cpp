@@ -666,6 +666,9 @@ struct Options {
   // Which library runs first in each repetition's pair (--first): "alternate"
   // (prism in even repetitions, Embree in odd ones), "prism" or "embree".
   std::string first = "alternate";
+  // --layout-csv: rows of this binary's BVH layout appended to this file
+  // (scripts/bench.sh builds one binary per layout: bench/results/layouts.csv).
+  std::string layout_csv;
   bool prism_first(int rep) const { return first == "prism" || (first == "alternate" && rep % 2 == 0); }
   bool runs(const char* name) const {
     for (size_t p = 0; p <= cases.size();) {
@@ -683,6 +686,21 @@ struct InstanceRow {
   double direct, identity, rotated;  // Mrays/s
 };
 std::vector<InstanceRow> g_instance_rows;
+
+// Per case: the BVH's memory (wide nodes, leaf order, triangle packets) per input triangle.
+struct MemoryRow {
+  std::string name;
+  double bytes_per_triangle;
+};
+std::vector<MemoryRow> g_memory_rows;
+
+// This binary's BVH layout: node width, float or quantized child boxes, and
+// the triangle packets' width (all chosen at compile time).
+std::string layout_name() {
+  constexpr bool quantized = sizeof(detail::BVHWideNode) < 32 * detail::wide_width;
+  return "nodes" + std::to_string(detail::wide_width) + (quantized ? "_quantized" : "_float") + "_packets" +
+         std::to_string(triangle_packet_width);
+}
 
 struct CsvRow {
   std::string name;
@@ -806,6 +824,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
               "triangle (wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
               ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
               double(ma.memory_bytes()) / double(ntri), ma.reference_count(), double(opt.split_budget));
+  g_memory_rows.push_back({case_name, double(ma.memory_bytes()) / double(ntri)});
 
   // Ray sets, all derived from prism's primary hits (deterministic).
   Bounds3f bounds = prism_scene.bounds();
@@ -993,6 +1012,8 @@ int main(int argc, char** argv) {
       opt.res = std::max(16, std::atoi(next().c_str()));
     } else if (a == "--out") {
       opt.out = next();
+    } else if (a == "--layout-csv") {
+      opt.layout_csv = next();
     } else if (a == "--gltf") {
       opt.gltf = next();
     } else if (a == "--env") {
@@ -1036,7 +1057,8 @@ int main(int argc, char** argv) {
                    "       [--embree-config STR (appended to Embree's device configuration, e.g. isa=avx2)]\n"
                    "       [--procedural-n N (the procedural mesh's resolution: 12 N^2 triangles; default 289)]\n"
                    "       [--first alternate|prism|embree (which library runs first in a repetition's pair;\n"
-                   "        default alternate)]\n",
+                   "        default alternate)]\n"
+                   "       [--layout-csv FILE (this binary's BVH layout: its rows appended to FILE)]\n",
                    argv[0], double(BVHBuildOptions{}.split_budget));
       return a == "--help" || a == "-h" ? 0 : 2;
     }
@@ -1134,6 +1156,32 @@ int main(int argc, char** argv) {
                  r.ratio, r.ratio_min, r.ratio_max);
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
+  if (!opt.layout_csv.empty()) {
+    // Appended, so that one file gathers the layouts' binaries (a header when
+    // the file is new or empty).
+    bool fresh = !fs::exists(opt.layout_csv) || fs::file_size(opt.layout_csv) == 0;
+    FILE* l = std::fopen(opt.layout_csv.c_str(), "a");
+    if (!l) {
+      std::fprintf(stderr, "cannot write %s\n", opt.layout_csv.c_str());
+      return 1;
+    }
+    if (fresh)
+      std::fprintf(l, "layout,node_bytes,case,triangles,threads,bytes_per_triangle,prism_mrays,embree_mrays,ratio,"
+                      "ratio_min,ratio_max\n");
+    const std::string layout = layout_name();
+    for (const auto& m : g_memory_rows)
+      for (const auto& r : rows) {
+        // Rows of case m: build_<case>, primary_<case>, ... (no case name ends another).
+        const std::string tail = "_" + m.name;
+        if (r.name.size() <= tail.size() || r.name.compare(r.name.size() - tail.size(), tail.size(), tail) != 0)
+          continue;
+        std::fprintf(l, "%s,%zu,%s,%zu,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f\n", layout.c_str(),
+                     sizeof(detail::BVHWideNode), r.name.c_str(), r.triangles, r.threads, m.bytes_per_triangle, r.prism,
+                     r.embree, r.ratio, r.ratio_min, r.ratio_max);
+      }
+    std::fclose(l);
+    std::printf("appended %s's rows to %s\n", layout.c_str(), opt.layout_csv.c_str());
+  }
   fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
   if (FILE* w = g_instance_rows.empty() ? nullptr : std::fopen(inst_out.string().c_str(), "w")) {
     std::fprintf(w, "case,threads,meshaccel_mrays,identity_instance_mrays,rotated_instance_mrays\n");
