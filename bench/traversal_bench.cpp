@@ -34,7 +34,7 @@
 // Usage: traversal_bench [--reps N] [--res N] [--threads 1,2] [--out FILE] [--gltf FILE]
 //                        [--env FILE] [--record-res N] [--record-spp N] [--record-cap N]
 //                        [--split-budget F] [--cases LIST] [--embree-config STR] [--procedural-n N]
-//                        [--first alternate|prism|embree]
+//                        [--first alternate|prism|embree] [--layout-csv FILE]
 // --embree-config is appended to Embree's device configuration (isa=avx2 holds
 // it to its AVX2 kernels); --procedural-n sets the procedural mesh's size for
 // the traversal rows (12 N^2 triangles; small meshes keep the BVH in cache).
@@ -50,6 +50,11 @@
 // Run from the project root; writes bench/results/traversal.csv by default, and
 // watertight.csv (edge rays: misses of each library, at the procedural mesh
 // and at a closed tube of slivers that pre-splitting cuts) beside it.
+// --layout-csv FILE appends every row of the run to FILE with this binary's
+// BVH layout (a compile-time choice: -DPRISM_BVH_WIDTH, -DPRISM_BVH_QUANTIZED)
+// and the BVH's bytes per triangle; scripts/bench.sh gathers the default
+// binary's rows (every case) and the other layouts' (the procedural mesh) in
+// bench/results/layouts.csv.
 #include <embree3/rtcore.h>
 #ifdef PRISM_BENCH_HAS_GLTF
 #include <tiny_gltf.h>
@@ -64,7 +69,9 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <system_error>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -687,17 +694,10 @@ struct InstanceRow {
 };
 std::vector<InstanceRow> g_instance_rows;
 
-// Per case: the BVH's memory (wide nodes, leaf order, triangle packets) per input triangle.
-struct MemoryRow {
-  std::string name;
-  double bytes_per_triangle;
-};
-std::vector<MemoryRow> g_memory_rows;
-
 // This binary's BVH layout: node width, float or quantized child boxes, and
 // the triangle packets' width (all chosen at compile time).
 std::string layout_name() {
-  constexpr bool quantized = sizeof(detail::BVHWideNode) < 32 * detail::wide_width;
+  constexpr bool quantized = std::is_same_v<detail::BVHWideNode, detail::BVHQuantWideNode>;
   return "nodes" + std::to_string(detail::wide_width) + (quantized ? "_quantized" : "_float") + "_packets" +
          std::to_string(triangle_packet_width);
 }
@@ -710,6 +710,8 @@ struct CsvRow {
   // The smallest and largest ratio of one repetition's pair (prism and Embree
   // run back to back): how far the VM's drift moves the figure within a run.
   double ratio_min, ratio_max;
+  // The case's BVH memory (wide nodes, leaf order, triangle packets) per input triangle.
+  double bytes_per_triangle = 0;
 };
 
 // The ratio of each repetition's pair, Embree's time over prism's, as
@@ -772,6 +774,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
               std::vector<CsvRow>& rows, const std::vector<ExtraRaySet>& external = {},
               RTCBuildQuality embree_quality = RTC_BUILD_QUALITY_MEDIUM) {
   size_t ntri = mesh.triangle_count();
+  const size_t first_row = rows.size();
   std::printf("\n== %s: %zu triangles, %zu vertices\n", case_name.c_str(), ntri, mesh.positions.size());
   std::fflush(stdout);
 
@@ -824,7 +827,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
               "triangle (wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
               ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
               double(ma.memory_bytes()) / double(ntri), ma.reference_count(), double(opt.split_budget));
-  g_memory_rows.push_back({case_name, double(ma.memory_bytes()) / double(ntri)});
+  const double bytes_per_triangle = double(ma.memory_bytes()) / double(ntri);
 
   // Ray sets, all derived from prism's primary hits (deterministic).
   Bounds3f bounds = prism_scene.bounds();
@@ -991,6 +994,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
                 md, mi, mi / md, mr, mr / md);
     g_instance_rows.push_back({case_name, md, mi, mr});
   }
+  for (size_t i = first_row; i < rows.size(); ++i) rows[i].bytes_per_triangle = bytes_per_triangle;
 }
 
 }  // namespace
@@ -1140,7 +1144,7 @@ int main(int argc, char** argv) {
     std::printf("\n(skipping metalroughspheres: %s not found)\n", opt.gltf.c_str());
   }
 #else
-  std::printf("\n(skipping metalroughspheres: built without tinygltf)\n");
+  if (opt.runs("metalroughspheres")) std::printf("\n(skipping metalroughspheres: built without tinygltf)\n");
 #endif
 
   fs::path out(opt.out);
@@ -1156,32 +1160,6 @@ int main(int argc, char** argv) {
                  r.ratio, r.ratio_min, r.ratio_max);
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
-  if (!opt.layout_csv.empty()) {
-    // Appended, so that one file gathers the layouts' binaries (a header when
-    // the file is new or empty).
-    bool fresh = !fs::exists(opt.layout_csv) || fs::file_size(opt.layout_csv) == 0;
-    FILE* l = std::fopen(opt.layout_csv.c_str(), "a");
-    if (!l) {
-      std::fprintf(stderr, "cannot write %s\n", opt.layout_csv.c_str());
-      return 1;
-    }
-    if (fresh)
-      std::fprintf(l, "layout,node_bytes,case,triangles,threads,bytes_per_triangle,prism_mrays,embree_mrays,ratio,"
-                      "ratio_min,ratio_max\n");
-    const std::string layout = layout_name();
-    for (const auto& m : g_memory_rows)
-      for (const auto& r : rows) {
-        // Rows of case m: build_<case>, primary_<case>, ... (no case name ends another).
-        const std::string tail = "_" + m.name;
-        if (r.name.size() <= tail.size() || r.name.compare(r.name.size() - tail.size(), tail.size(), tail) != 0)
-          continue;
-        std::fprintf(l, "%s,%zu,%s,%zu,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f\n", layout.c_str(),
-                     sizeof(detail::BVHWideNode), r.name.c_str(), r.triangles, r.threads, m.bytes_per_triangle, r.prism,
-                     r.embree, r.ratio, r.ratio_min, r.ratio_max);
-      }
-    std::fclose(l);
-    std::printf("appended %s's rows to %s\n", layout.c_str(), opt.layout_csv.c_str());
-  }
   fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
   if (FILE* w = g_instance_rows.empty() ? nullptr : std::fopen(inst_out.string().c_str(), "w")) {
     std::fprintf(w, "case,threads,meshaccel_mrays,identity_instance_mrays,rotated_instance_mrays\n");
@@ -1196,6 +1174,29 @@ int main(int argc, char** argv) {
     for (const auto& r : wt) std::fprintf(w, "%s,%zu,%zu,%zu\n", r.mesh.c_str(), r.rays, r.prism_misses, r.embree_misses);
     std::fclose(w);
     std::printf("wrote %s\n", wt_out.string().c_str());
+  }
+  if (!opt.layout_csv.empty()) {
+    // Appended, so that one file gathers the layouts' binaries (a header when
+    // the file is new or empty).
+    fs::path lp(opt.layout_csv);
+    std::error_code ec;
+    if (lp.has_parent_path()) fs::create_directories(lp.parent_path(), ec);
+    const bool fresh = !fs::exists(lp, ec) || fs::file_size(lp, ec) == 0;
+    FILE* l = std::fopen(opt.layout_csv.c_str(), "a");
+    if (!l) {
+      std::fprintf(stderr, "cannot write %s\n", opt.layout_csv.c_str());
+      return 1;
+    }
+    if (fresh)
+      std::fprintf(l, "layout,node_bytes,case,triangles,threads,bytes_per_triangle,prism_mrays,embree_mrays,ratio,"
+                      "ratio_min,ratio_max\n");
+    const std::string layout = layout_name();
+    for (const auto& r : rows)
+      std::fprintf(l, "%s,%zu,%s,%zu,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f\n", layout.c_str(), sizeof(detail::BVHWideNode),
+                   r.name.c_str(), r.triangles, r.threads, r.bytes_per_triangle, r.prism, r.embree, r.ratio,
+                   r.ratio_min, r.ratio_max);
+    std::fclose(l);
+    std::printf("appended %s's rows to %s\n", layout.c_str(), opt.layout_csv.c_str());
   }
   return 0;
 }
