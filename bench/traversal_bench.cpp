@@ -714,6 +714,14 @@ struct CsvRow {
   double bytes_per_triangle = 0;
 };
 
+// One row of traversal.csv (with the bytes per triangle appended for layouts.csv).
+void write_row(FILE* f, const CsvRow& r, bool with_bytes = false) {
+  std::fprintf(f, "%s,%zu,%d,%.3f,%.3f,%.3f,%.3f,%.3f", r.name.c_str(), r.triangles, r.threads, r.prism, r.embree,
+               r.ratio, r.ratio_min, r.ratio_max);
+  if (with_bytes) std::fprintf(f, ",%.1f", r.bytes_per_triangle);
+  std::fputc('\n', f);
+}
+
 // The ratio of each repetition's pair, Embree's time over prism's, as
 // {smallest, largest}.
 std::pair<double, double> paired_ratio_range(const std::vector<double>& t_prism, const std::vector<double>& t_embree) {
@@ -823,11 +831,11 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
   size_t leaves = 0;
   for (const auto& n : ma.bvh().wide_nodes())
     for (uint32_t c : n.count) leaves += c != 0 && c != detail::BVHWideNode::interior;
+  const double bytes_per_triangle = double(ma.memory_bytes()) / double(ntri);
   std::printf("  prism BVH: %zu wide nodes, %zu leaves, %.2f triangles per leaf, %.1f bytes per "
               "triangle (wide nodes, leaf order, triangle packets), %zu references (split budget %g)\n",
-              ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves),
-              double(ma.memory_bytes()) / double(ntri), ma.reference_count(), double(opt.split_budget));
-  const double bytes_per_triangle = double(ma.memory_bytes()) / double(ntri);
+              ma.bvh().wide_node_count(), leaves, double(ma.reference_count()) / double(leaves), bytes_per_triangle,
+              ma.reference_count(), double(opt.split_budget));
 
   // Ray sets, all derived from prism's primary hits (deterministic).
   Bounds3f bounds = prism_scene.bounds();
@@ -1155,9 +1163,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::fprintf(f, "case,triangles,threads,prism_mrays,embree_mrays,ratio,ratio_min,ratio_max\n");
-  for (const auto& r : rows)
-    std::fprintf(f, "%s,%zu,%d,%.3f,%.3f,%.3f,%.3f,%.3f\n", r.name.c_str(), r.triangles, r.threads, r.prism, r.embree,
-                 r.ratio, r.ratio_min, r.ratio_max);
+  for (const auto& r : rows) write_row(f, r);
   std::fclose(f);
   std::printf("\nwrote %s\n", opt.out.c_str());
   fs::path inst_out = (out.has_parent_path() ? out.parent_path() : fs::path(".")) / "instances.csv";
@@ -1187,14 +1193,15 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "cannot write %s\n", opt.layout_csv.c_str());
       return 1;
     }
+    // traversal.csv's columns, after the layout's and with the bytes per triangle last.
     if (fresh)
-      std::fprintf(l, "layout,node_bytes,case,triangles,threads,bytes_per_triangle,prism_mrays,embree_mrays,ratio,"
-                      "ratio_min,ratio_max\n");
+      std::fprintf(l, "layout,node_bytes,case,triangles,threads,prism_mrays,embree_mrays,ratio,ratio_min,ratio_max,"
+                      "bytes_per_triangle\n");
     const std::string layout = layout_name();
-    for (const auto& r : rows)
-      std::fprintf(l, "%s,%zu,%s,%zu,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f\n", layout.c_str(), sizeof(detail::BVHWideNode),
-                   r.name.c_str(), r.triangles, r.threads, r.bytes_per_triangle, r.prism, r.embree, r.ratio,
-                   r.ratio_min, r.ratio_max);
+    for (const auto& r : rows) {
+      std::fprintf(l, "%s,%zu,", layout.c_str(), sizeof(detail::BVHWideNode));
+      write_row(l, r, true);
+    }
     std::fclose(l);
     std::printf("appended %s's rows to %s\n", layout.c_str(), opt.layout_csv.c_str());
   }
