@@ -148,11 +148,37 @@ TEST_CASE("adaptive sampling is bitwise identical at 1 and 2 threads", "[render]
   }
   CHECK(counts[0] == counts[1]);
   CHECK(st[0].samples == st[1].samples);
+  CHECK(st[0].threads == 1);
+  CHECK(st[1].threads == 2);
   CHECK(st[0].adaptive_rounds == st[1].adaptive_rounds);
   bool same = films[0].splats().size() == films[1].splats().size();
   for (size_t i = 0; same && i < films[0].pixels().size(); ++i) same = same_pixel(films[0].pixels()[i], films[1].pixels()[i]);
   for (size_t i = 0; same && i < films[0].splats().size(); ++i) same = same_bits(films[0].splats()[i], films[1].splats()[i]);
   CHECK(same);
+}
+
+TEST_CASE("adaptive sampling's caustic pass runs on every thread", "[render][adaptive]") {
+  // The pass that ends an adaptive render: light paths only, no tiles.
+  // Its thread count was once capped by its tiles (none), so it ran alone.
+  Scene<RGB> scene;
+  build_cornell_box(scene);
+  scene.build();
+  const int w = 24, h = 20;
+  PerspectiveCamera cam = default_camera(w, h);
+  RenderOptions opt;
+  opt.spp = 20;  // 9600 light paths: 3 chunks of at most 4096
+  opt.seed = 2;
+  opt.threads = 2;
+  const detail::PassPlan caustics_only{nullptr, nullptr, false, true};
+  Film films[2] = {Film(w, h), Film(w, h)};
+  RenderStats st = detail::render_pass(scene, cam, PathIntegrator{}, films[0], opt, BoxFilter{}, &caustics_only);
+  CHECK(st.threads == 2);
+  CHECK(st.samples == 0);
+  CHECK(st.light_paths == uint64_t(w * h) * 20);
+  opt.threads = 1;
+  st = detail::render_pass(scene, cam, PathIntegrator{}, films[1], opt, BoxFilter{}, &caustics_only);
+  CHECK(st.threads == 1);
+  CHECK(films[0].splats() == films[1].splats());
 }
 
 // The stopping rule looks at the samples it stops on, so the adaptive mean is

@@ -136,6 +136,34 @@ TEST_CASE("more shares than tiles or samples leave some empty", "[render][slice]
   CHECK(render_share(scene, none).st.samples == 0);
 }
 
+TEST_CASE("a share with caustic chunks and no tiles runs them on every thread", "[render][slice]") {
+  // 3 x 3 tiles of 8x8; at 200 spp the caustic pass has 24 chunks of 4096
+  // light paths. Share 9 of 10 holds no tile and chunks 9 and 19: two units
+  // of work for two threads (a thread count once capped by the tiles alone).
+  const Scene<RGB>& scene = cornell();
+  RenderOptions opt;
+  opt.spp = 200;
+  opt.seed = 3;
+  opt.tile_stride = 10;
+  opt.tile_offset = 9;
+  Rendered two = render_share(scene, opt);
+  CHECK(two.st.samples == 0);
+  CHECK(two.st.light_paths == 2 * 4096);
+  CHECK(two.st.threads == 2);
+  // The same share on one thread: the same image, bit for bit.
+  Rendered one;
+  RenderOptions o1 = opt;
+  o1.threads = 1;
+  o1.tile_size = 8;
+  one.st = render(scene, default_camera(W, H), PathIntegrator{}, one.film, o1);
+  CHECK(one.st.threads == 1);
+  REQUIRE(two.film.splats().size() == size_t(W) * H * 3);
+  CHECK(one.film.splats() == two.film.splats());
+  double sum = 0;
+  for (double v : two.film.splats()) sum += v;
+  CHECK(sum > 0);  // the chunks' paths reached the image
+}
+
 TEST_CASE("bad shares are rejected with the option named", "[render][slice]") {
   const Scene<RGB>& scene = cornell();
   auto expect = [&](RenderOptions opt, const std::string& what) {

@@ -330,7 +330,7 @@ DistributedStats render(const Scene& scene, const Camera& camera, const Integrat
   out.mine.light_paths = st.light_paths;
   out.mine.rays = st.rays;
   out.mine.dropped = st.dropped;
-  out.mine.threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  out.mine.threads = st.threads;
   out.mine.cancelled = st.cancelled;
 
   // Wait (asleep) for the slowest rank; this also separates that wait from the
@@ -363,6 +363,7 @@ DistributedStats render(const Scene& scene, const Camera& camera, const Integrat
       out.total.light_paths += s.light_paths;
       out.total.rays += s.rays;
       out.total.dropped += s.dropped;
+      out.total.threads += s.threads;
       out.total.cancelled = out.total.cancelled || s.cancelled;
     }
   } else {

@@ -81,6 +81,10 @@ struct RenderStats {
   uint64_t rays = 0;
   uint64_t dropped = 0;  // non-finite samples, never written to the film
   bool cancelled = false;
+  // Threads the render ran on, the calling one included: RenderOptions::threads
+  // (or the hardware's), at most one per unit of work (tile or caustic chunk);
+  // adaptive sampling: the most that one of its passes used.
+  int threads = 0;
   // Adaptive sampling only: rounds after the first pass, pixels that stopped
   // at spp with their error still above the target, and the estimated
   // relative error (as the rounds measure it, 3x3 neighbourhood included)
@@ -134,8 +138,6 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, all_tiles = tiles_x * tiles_y;
   // This share's tiles: offset, offset + stride, ...
   const int tiles = plan && !plan->camera ? 0 : all_tiles > offset ? (all_tiles - offset + stride - 1) / stride : 0;
-  int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::max(1, std::min(threads, std::max(1, tiles)));
 
   // The light-tracing pass for caustics, when the integrator has one and the
   // scene needs it (path.hpp): as many light paths as camera samples, in
@@ -153,6 +155,10 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   const int range_chunks = int((lp_end - lp_begin + chunk_size - 1) / chunk_size);
   const int chunks = range_chunks > offset ? (range_chunks - offset + stride - 1) / stride : 0;
   const int total_work = tiles + chunks;
+  // No more threads than units of work: tiles and caustic chunks alike (a
+  // caustic-only pass, as adaptive sampling ends with, has no tiles).
+  int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::max(1, std::min(threads, std::max(1, total_work)));
 
   std::atomic<int> next{0}, done{0}, next_chunk{0};
   std::atomic<uint64_t> samples{0}, rays{0}, dropped{0};
@@ -297,6 +303,7 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   }
   st.light_paths = cancelled ? 0 : my_paths;
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  st.threads = threads;
   st.samples = samples;
   st.rays = rays;
   st.dropped = dropped;
@@ -396,6 +403,7 @@ RenderStats render_adaptive(const Scene& scene, const Camera& camera, const Inte
   auto add = [&](const RenderStats& p) {
     st.samples += p.samples, st.rays += p.rays, st.dropped += p.dropped, st.light_paths += p.light_paths;
     st.cancelled = st.cancelled || p.cancelled;
+    st.threads = std::max(st.threads, p.threads);
   };
   PassPlan plan{first.data(), last.data(), true, false};
   add(render_pass(scene, camera, integrator, film, pass_opt, filter, &plan));
