@@ -1,8 +1,9 @@
 // render_bench: samples/s of the built-in default scene at 1 and 2 threads, in
 // RGB and in spectral mode (median of several runs), written to
 // bench/results/render.csv with the 2-thread speedup and the cost of a
-// spectral sample relative to an RGB one. Run from the project root
-// (scripts/bench.sh does).
+// spectral sample relative to an RGB one; and an adaptive render's speedup
+// (rows default_adaptive, below). Run from the project root (scripts/bench.sh
+// does).
 //
 // The last column, pair_speedup, is what the machine itself gives two
 // threads at that moment: two 1-thread renders run side by side, each with
@@ -23,6 +24,12 @@
 // render alone (its own timeline, same round), over that moment. Two
 // renders on two fully independent cores give 2; the 2-thread render can
 // only beat this figure by luck of the tiles' order.
+//
+// Rows default_adaptive: the same scene in RGB with adaptive sampling
+// (RenderOptions::adaptive_target 0.05, 8 to 64 spp, 128x128), 1 and 2
+// threads in the same rounds; its rounds after the first give a few tiles
+// most of the work, which the uniform render never does. Its pair columns
+// are left empty.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -37,6 +44,7 @@
 namespace {
 
 constexpr int width = 256, height = 256, spp = 32, runs = 9;
+constexpr int adaptive_size = 128, adaptive_cap = 64;
 
 struct Row {
   const char* colour;
@@ -64,6 +72,19 @@ prism::RenderStats render_once(const prism::Scene<S>& scene, int threads, std::v
     timeline->clear();
     opt.progress = [timeline, start](int, int) { timeline->push_back(since(start)); };
   }
+  return render(scene, cam, PathIntegrator{}, film, opt);
+}
+
+// One adaptive render of the default scene (RGB), as the rows default_adaptive describe.
+prism::RenderStats render_adaptive_once(const prism::Scene<prism::RGB>& scene, int threads) {
+  using namespace prism;
+  PerspectiveCamera cam = default_camera(adaptive_size, adaptive_size);
+  Film film(adaptive_size, adaptive_size);
+  RenderOptions opt;
+  opt.spp = adaptive_cap;
+  opt.threads = threads;
+  opt.adaptive_target = 0.05;
+  opt.adaptive_min_spp = 8;
   return render(scene, cam, PathIntegrator{}, film, opt);
 }
 
@@ -139,10 +160,12 @@ int main(int argc, char** argv) {
   std::vector<std::pair<double, double>> pair[2];
   std::vector<double> overlap[2];
   std::vector<double> alone_timeline[2];
+  std::vector<prism::RenderStats> adaptive[2];  // per thread count
   for (int r = 0; r < runs; ++r) {
     for (int t = 0; t < 2; ++t) {
       st[0][t].push_back(render_once(rgb_scene, t + 1, t == 0 ? &alone_timeline[0] : nullptr));
       st[1][t].push_back(render_once(spectral_scene, t + 1, t == 0 ? &alone_timeline[1] : nullptr));
+      adaptive[t].push_back(render_adaptive_once(rgb_scene, t + 1));
     }
     PairRun p = pair_run(rgb_scene);
     pair[0].push_back({p.seconds[0], p.seconds[1]});
@@ -178,6 +201,14 @@ int main(int argc, char** argv) {
                   r.threads, width, height, spp, r.seconds, r.msamples, r.mrays, one.seconds / r.seconds,
                   r.seconds / rgb_same_threads.seconds, r.threads == 2 ? pair_speedup[c] : 1.0,
                   r.threads == 2 ? pair_overlap_speedup[c] : 1.0);
+    csv << line;
+    std::fputs(line, stdout);
+  }
+  const Row a1 = median_row("rgb", 1, adaptive[0]), a2 = median_row("rgb", 2, adaptive[1]);
+  for (const Row& r : {a1, a2}) {
+    char line[256];
+    std::snprintf(line, sizeof line, "default_adaptive,rgb,path,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.3f,1.000,,\n", r.threads,
+                  adaptive_size, adaptive_size, adaptive_cap, r.seconds, r.msamples, r.mrays, a1.seconds / r.seconds);
     csv << line;
     std::fputs(line, stdout);
   }

@@ -160,6 +160,30 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::max(1, std::min(threads, std::max(1, total_work)));
 
+  // An adaptive round's tiles, the most samples first (then in raster
+  // order): the rounds after the first give a few tiles most of the work,
+  // and one of them taken last would keep a thread busy while the others
+  // wait. The image does not depend on the order (each pixel's samples are
+  // its own). A uniform pass keeps raster order.
+  std::vector<int> tile_order;
+  if (plan && tiles > 0) {
+    std::vector<std::pair<uint64_t, int>> by_work(size_t(tiles), {0, 0});
+    for (int k = 0; k < tiles; ++k) {
+      const int t = offset + k * stride;
+      const int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
+      uint64_t n = 0;
+      for (int y = y0; y < std::min(y0 + ts, h); ++y)
+        for (int x = x0; x < std::min(x0 + ts, w); ++x) {
+          const size_t i = size_t(y) * size_t(w) + size_t(x);
+          n += plan->last[i] > plan->first[i] ? plan->last[i] - plan->first[i] : 0;
+        }
+      by_work[size_t(k)] = {n, t};
+    }
+    std::stable_sort(by_work.begin(), by_work.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    tile_order.resize(size_t(tiles));
+    for (int k = 0; k < tiles; ++k) tile_order[size_t(k)] = by_work[size_t(k)].second;
+  }
+
   std::atomic<int> next{0}, done{0}, next_chunk{0};
   std::atomic<uint64_t> samples{0}, rays{0}, dropped{0};
   std::atomic<bool> cancelled{false};
@@ -181,7 +205,7 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
       }
       int k = next.fetch_add(1);
       if (k >= tiles) break;
-      int t = offset + k * stride;
+      int t = tile_order.empty() ? offset + k * stride : tile_order[size_t(k)];
       int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
       int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
       for (int y = y0; y < y1; ++y)
