@@ -58,33 +58,27 @@ double since(std::chrono::steady_clock::time_point start) {
 }
 
 // One render of the default scene in colour model S; with `timeline`, the
-// seconds at which each unit of work (tile, caustic chunk) was done.
+// seconds at which each unit of work (tile, caustic chunk) was done. With
+// `adaptive`, the adaptive render of the rows default_adaptive instead.
 template <class S>
-prism::RenderStats render_once(const prism::Scene<S>& scene, int threads, std::vector<double>* timeline = nullptr) {
+prism::RenderStats render_once(const prism::Scene<S>& scene, int threads, std::vector<double>* timeline = nullptr,
+                               bool adaptive = false) {
   using namespace prism;
-  PerspectiveCamera cam = default_camera(width, height);
-  Film film(width, height);
+  const int w = adaptive ? adaptive_size : width, h = adaptive ? adaptive_size : height;
+  PerspectiveCamera cam = default_camera(w, h);
+  Film film(w, h);
   RenderOptions opt;
-  opt.spp = spp;
+  opt.spp = adaptive ? adaptive_cap : spp;
   opt.threads = threads;
+  if (adaptive) {
+    opt.adaptive_target = 0.05;
+    opt.adaptive_min_spp = 8;
+  }
   const auto start = std::chrono::steady_clock::now();
   if (timeline) {
     timeline->clear();
     opt.progress = [timeline, start](int, int) { timeline->push_back(since(start)); };
   }
-  return render(scene, cam, PathIntegrator{}, film, opt);
-}
-
-// One adaptive render of the default scene (RGB), as the rows default_adaptive describe.
-prism::RenderStats render_adaptive_once(const prism::Scene<prism::RGB>& scene, int threads) {
-  using namespace prism;
-  PerspectiveCamera cam = default_camera(adaptive_size, adaptive_size);
-  Film film(adaptive_size, adaptive_size);
-  RenderOptions opt;
-  opt.spp = adaptive_cap;
-  opt.threads = threads;
-  opt.adaptive_target = 0.05;
-  opt.adaptive_min_spp = 8;
   return render(scene, cam, PathIntegrator{}, film, opt);
 }
 
@@ -165,7 +159,7 @@ int main(int argc, char** argv) {
     for (int t = 0; t < 2; ++t) {
       st[0][t].push_back(render_once(rgb_scene, t + 1, t == 0 ? &alone_timeline[0] : nullptr));
       st[1][t].push_back(render_once(spectral_scene, t + 1, t == 0 ? &alone_timeline[1] : nullptr));
-      adaptive[t].push_back(render_adaptive_once(rgb_scene, t + 1));
+      adaptive[t].push_back(render_once(rgb_scene, t + 1, nullptr, true));
     }
     PairRun p = pair_run(rgb_scene);
     pair[0].push_back({p.seconds[0], p.seconds[1]});
