@@ -290,12 +290,12 @@ inline double reduce_aovs(AovFilm& aovs, int root = 0, MPI_Comm comm = MPI_COMM_
 struct RankStats {
   double seconds = 0;  // its render (not the reduction)
   uint64_t samples = 0, light_paths = 0, rays = 0, dropped = 0;
-  int threads = 0;
+  int threads = 0;  // it ran on (RenderStats::threads; fewer than asked if its share has fewer units of work)
   bool cancelled = false;
 };
 
 struct DistributedStats {
-  RenderStats total;             // on root: sums over the ranks; seconds is the whole wall time
+  RenderStats total;             // on root: sums over the ranks (threads too); seconds is the whole wall time
   std::vector<RankStats> ranks;  // on root: one per rank, in rank order
   RankStats mine;                // this rank's
   double wait_seconds = 0;       // this rank's wait for the slowest rank to finish rendering
@@ -312,7 +312,7 @@ struct DistributedStats {
   }
 };
 
-// Renders this rank's share (opt.threads threads; share() above) into film,
+// Renders this rank's share (on opt.threads threads; share() above) into film,
 // then reduces the films (and opt.aovs, if set) onto root. Collective: every
 // rank calls it with the same scene, camera, film size and options. On
 // root, film then holds the whole image.

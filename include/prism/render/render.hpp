@@ -37,7 +37,8 @@ struct RenderOptions {
   SamplerKind sampler = SamplerKind::independent;
   int threads = 0;       // 0 = all hardware threads
   int tile_size = 16;
-  // Called from worker threads (serialised) after each tile: tiles done, total.
+  // Called from worker threads (serialised) after each unit of work (a tile,
+  // or a chunk of the caustic pass): units done, total (tiles + chunks).
   std::function<void(int, int)> progress;
   const std::atomic<bool>* cancel = nullptr;  // set to stop early
   // When set, also filled with albedo, normal and depth per pixel (the same
@@ -82,8 +83,9 @@ struct RenderStats {
   uint64_t dropped = 0;  // non-finite samples, never written to the film
   bool cancelled = false;
   // Threads the render ran on, the calling one included: RenderOptions::threads
-  // (or the hardware's), at most one per unit of work (tile or caustic chunk);
-  // adaptive sampling: the most that one of its passes used.
+  // (or the hardware's), but no more than the pass's tiles and caustic chunks
+  // together, and at least 1; adaptive sampling: the most that one of its
+  // passes used.
   int threads = 0;
   // Adaptive sampling only: rounds after the first pass, pixels that stopped
   // at spp with their error still above the target, and the estimated
