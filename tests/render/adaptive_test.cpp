@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <prism/prism.hpp>
+#include "support/scenes.hpp"
 
 namespace adaptive_test {
 
@@ -24,9 +25,7 @@ bool same_pixel(const Film::Pixel& a, const Film::Pixel& b) {
 }  // namespace
 
 TEST_CASE("adaptive sampling meets the error target below the sample cap", "[render][adaptive]") {
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   const int w = 24, h = 24;
   PerspectiveCamera cam = default_camera(w, h);
   Film film(w, h);
@@ -85,9 +84,7 @@ TEST_CASE("adaptive sampling meets the error target below the sample cap", "[ren
 }
 
 TEST_CASE("an adaptive pixel with n samples holds the uniform n-spp value", "[render][adaptive]") {
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   const int w = 16, h = 16;
   PerspectiveCamera cam = default_camera(w, h);
   for (SamplerKind k : {SamplerKind::independent, SamplerKind::sobol}) {
@@ -127,9 +124,7 @@ TEST_CASE("an adaptive pixel with n samples holds the uniform n-spp value", "[re
 }
 
 TEST_CASE("adaptive sampling is bitwise identical at 1 and 2 threads", "[render][adaptive][determinism]") {
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   const int w = 24, h = 20;
   PerspectiveCamera cam = default_camera(w, h);
   Film films[2] = {Film(w, h), Film(w, h)};
@@ -162,9 +157,7 @@ TEST_CASE("adaptive sampling is bitwise identical at 1 and 2 threads", "[render]
 TEST_CASE("adaptive sampling's caustic pass runs on every thread", "[render][adaptive]") {
   // The pass that ends an adaptive render: light paths only, no tiles.
   // Its thread count was once capped by its tiles (none), so it ran alone.
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   const int w = 24, h = 20;
   PerspectiveCamera cam = default_camera(w, h);
   RenderOptions opt;
@@ -237,9 +230,7 @@ TEST_CASE("the adaptive image matches a high-spp reference region by region", "[
 }
 
 TEST_CASE("adaptive sampling rejects a split render and bad options", "[render][adaptive]") {
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   PerspectiveCamera cam = default_camera(8, 8);
   Film film(8, 8);
   RenderOptions opt;

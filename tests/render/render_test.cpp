@@ -6,6 +6,7 @@
 #include <iterator>
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
+#include "support/scenes.hpp"
 
 namespace render_test {
 
@@ -31,9 +32,7 @@ struct PoisonIntegrator {
 }  // namespace
 
 TEST_CASE("default scene is bitwise identical at 1 and 2 threads", "[render][determinism]") {
-  Scene<RGB> scene;
-  build_cornell_box(scene);
-  scene.build();
+  const Scene<RGB>& scene = test::cornell_box();
   const int w = 96, h = 80;
   PerspectiveCamera cam = default_camera(w, h);
   std::string paths[2];

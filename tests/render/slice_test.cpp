@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 #include <prism/prism.hpp>
+#include "support/scenes.hpp"
 
 namespace slice_test {
 
@@ -57,20 +58,10 @@ bool bitwise_equal(const Film& a, const Film& b) {
   return true;
 }
 
-const Scene<RGB>& cornell() {
-  static const Scene<RGB> scene = [] {
-    Scene<RGB> s;
-    build_cornell_box(s);
-    s.build();
-    return s;
-  }();
-  return scene;
-}
-
 }  // namespace
 
 TEST_CASE("sample ranges merged equal the whole render", "[render][slice]") {
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   auto kind = GENERATE(SamplerKind::independent, SamplerKind::sobol);
   RenderOptions opt;
   opt.spp = 7;  // split 3 + 4, and 0 + 7
@@ -98,7 +89,7 @@ TEST_CASE("sample ranges merged equal the whole render", "[render][slice]") {
 TEST_CASE("tile strides merged equal the whole render bitwise", "[render][slice]") {
   // Each pixel belongs to one share, and splats are fixed-point sums (exact in
   // double), so the merged film is the whole render's bit for bit.
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   RenderOptions opt;
   opt.spp = 4;
   opt.seed = 5;
@@ -120,7 +111,7 @@ TEST_CASE("tile strides merged equal the whole render bitwise", "[render][slice]
 }
 
 TEST_CASE("more shares than tiles or samples leave some empty", "[render][slice]") {
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   RenderOptions opt;
   opt.spp = 2;
   opt.tile_stride = 64;  // 3 x 3 tiles of 8x8: offset 40 has none
@@ -140,7 +131,7 @@ TEST_CASE("a share with caustic chunks and no tiles runs them on every thread", 
   // 3 x 3 tiles of 8x8; at 200 spp the caustic pass has 24 chunks of 4096
   // light paths. Share 9 of 10 holds no tile and chunks 9 and 19: two units
   // of work for two threads (a thread count once capped by the tiles alone).
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   RenderOptions opt;
   opt.spp = 200;
   opt.seed = 3;
@@ -165,7 +156,7 @@ TEST_CASE("a share with caustic chunks and no tiles runs them on every thread", 
 }
 
 TEST_CASE("bad shares are rejected with the option named", "[render][slice]") {
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   auto expect = [&](RenderOptions opt, const std::string& what) {
     opt.spp = 4;
     try {
@@ -208,7 +199,7 @@ TEST_CASE("films and AOV films of other sizes do not merge", "[render][slice]") 
 }
 
 TEST_CASE("AOVs of sample ranges merge into the whole render's", "[render][slice]") {
-  const Scene<RGB>& scene = cornell();
+  const Scene<RGB>& scene = test::cornell_box();
   RenderOptions opt;
   opt.spp = 5;
   opt.seed = 2;

@@ -140,6 +140,14 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts, all_tiles = tiles_x * tiles_y;
   // This share's tiles: offset, offset + stride, ...
   const int tiles = plan && !plan->camera ? 0 : all_tiles > offset ? (all_tiles - offset + stride - 1) / stride : 0;
+  // Tile t's pixels: [x0, x1) x [y0, y1).
+  struct TileBox {
+    int x0, y0, x1, y1;
+  };
+  auto tile_box = [&](int t) {
+    const int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
+    return TileBox{x0, y0, std::min(x0 + ts, w), std::min(y0 + ts, h)};
+  };
 
   // The light-tracing pass for caustics, when the integrator has one and the
   // scene needs it (path.hpp): as many light paths as camera samples, in
@@ -172,10 +180,10 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
     std::vector<std::pair<uint64_t, int>> by_work(size_t(tiles), {0, 0});
     for (int k = 0; k < tiles; ++k) {
       const int t = offset + k * stride;
-      const int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
+      const TileBox b = tile_box(t);
       uint64_t n = 0;
-      for (int y = y0; y < std::min(y0 + ts, h); ++y)
-        for (int x = x0; x < std::min(x0 + ts, w); ++x) {
+      for (int y = b.y0; y < b.y1; ++y)
+        for (int x = b.x0; x < b.x1; ++x) {
           const size_t i = size_t(y) * size_t(w) + size_t(x);
           n += plan->last[i] > plan->first[i] ? plan->last[i] - plan->first[i] : 0;
         }
@@ -207,11 +215,9 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
       }
       int k = next.fetch_add(1);
       if (k >= tiles) break;
-      int t = tile_order.empty() ? offset + k * stride : tile_order[size_t(k)];
-      int x0 = (t % tiles_x) * ts, y0 = (t / tiles_x) * ts;
-      int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
+      const TileBox b = tile_box(tile_order.empty() ? offset + k * stride : tile_order[size_t(k)]);
+      for (int y = b.y0; y < b.y1; ++y)
+        for (int x = b.x0; x < b.x1; ++x) {
           int sb = s_begin, se = s_end;
           if (plan) {
             const size_t i = size_t(y) * size_t(w) + size_t(x);
