@@ -85,7 +85,11 @@ struct alignas(32) BVHNode {
 static_assert(sizeof(BVHNode) == 32);
 
 struct BVHBuildOptions {
-  int max_leaf_size = 8;
+  // The most primitives in a leaf; 0 (the default) means one leaf_block, and
+  // at least 8 (leaf_size_limit()): MeshAccel's leaves then hold one packet of
+  // triangles, 8 or, with AVX-512, 16 (accel/triangle_packet.hpp), and 4-wide
+  // packets two.
+  int max_leaf_size = 0;
   // Primitives a leaf tests together (triangle packets): the SAH counts a
   // leaf's cost in blocks of this many, and each leaf's range in prims()
   // starts at a multiple of it, padded by repeating the leaf's last primitive.
@@ -124,6 +128,9 @@ struct BVHBuildOptions {
   // (BVH::nodes(), for tests and inspection). Otherwise it is freed once the
   // layout is written: 32 bytes per binary node, about 9 per mesh triangle.
   bool keep_binary_tree = false;
+
+  // max_leaf_size, with 0 resolved.
+  int leaf_size_limit() const { return max_leaf_size > 0 ? max_leaf_size : std::max(8, leaf_block); }
 };
 
 // Per-ray data for box tests.
@@ -1558,12 +1565,12 @@ class BVH {
       // / A >= 1 (and the ties, NaN costs and centroids that coincide all
       // end in a leaf below too). Half of all nodes are such leaves, so
       // binning them was a large part of the build.
-      if (n <= block && n <= uint32_t(opt.max_leaf_size) && opt.traversal_cost >= 1) return make_leaf();
+      if (n <= block && n <= uint32_t(opt.leaf_size_limit()) && opt.traversal_cost >= 1) return make_leaf();
       PrimRef* r = refs.get();
       Bounds3f lb, lc, rb, rc;  // children's bounds and centroid bounds
       uint32_t mid;
       if (depth >= max_sah_depth) {
-        if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
+        if (n <= uint32_t(opt.leaf_size_limit())) return make_leaf();
         mid = begin + n / 2;
         lc = centroid_bounds(r, begin, mid, &lb);
         rc = centroid_bounds(r, mid, end, &rb);
@@ -1718,12 +1725,12 @@ class BVH {
         Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : blocks(n));
         if (best_axis < 0) {
           // All centroids coincide: split in the middle if the leaf would be too big.
-          if (n <= uint32_t(opt.max_leaf_size)) return make_leaf();
+          if (n <= uint32_t(opt.leaf_size_limit())) return make_leaf();
           mid = begin + n / 2;
           lc = centroid_bounds(r, begin, mid, &lb);
           rc = centroid_bounds(r, mid, end, &rb);
         } else {
-          if (n <= uint32_t(opt.max_leaf_size) && leaf_cost <= split_cost) return make_leaf();
+          if (n <= uint32_t(opt.leaf_size_limit()) && leaf_cost <= split_cost) return make_leaf();
           int a = best_axis;
           Side ls, rs;
           PrimRef* first = partition_by_bin(r + begin, r + end, a, lo[a], k[a], best_split, ls, rs);

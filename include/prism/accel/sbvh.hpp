@@ -207,7 +207,7 @@ class SpatialSplitBuilder {
         t.leaf_box.push_back(r.box);
       }
     };
-    const size_t max_leaf = size_t(std::max(1, m_opt.max_leaf_size));
+    const size_t max_leaf = size_t(std::max(1, m_opt.leaf_size_limit()));
     if (n == 1 || (n <= m_block && n <= max_leaf && m_opt.traversal_cost >= 1)) return make_leaf();
 
     std::vector<Ref> left, right;

@@ -148,8 +148,8 @@ class MeshAccel {
   // A packet of a leaf's triangles with their indices in the mesh: a hit
   // reads its triangle from the cache line it was tested in, and a shadow
   // ray's `skip` is compared without a lookup (with 8 lanes the indices fill
-  // the fifth cache line, which the vertices used by half).
-  struct alignas(W == 8 ? 64 : 32) LeafPacket {
+  // the fifth cache line, which the vertices used by half; with 16, a tenth).
+  struct alignas(W >= 8 ? 64 : 32) LeafPacket {
     TrianglePacket tris;
     uint32_t tri[W];
   };

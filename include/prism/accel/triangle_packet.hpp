@@ -1,29 +1,39 @@
-// prism/accel/triangle_packet.hpp — four (or eight) triangles stored side by side and
+// prism/accel/triangle_packet.hpp — four, eight or sixteen triangles stored side by side and
 // intersected with one ray at once: the watertight test of
 // geometry/triangle.hpp (Woop, Benthin & Wald 2013, with pbrt-v4's bound on
 // the rounding error of t), lane for lane the same operations in the same
 // order, so a lane's verdict and t are bit for bit the scalar test's.
 //
-// The SIMD path runs on SSE2 (4-wide packets) or AVX (8-wide), chosen from
-// the compiler's flags. The edge functions are difference_of_products, as in
+// The SIMD path runs on SSE2 (4-wide packets), AVX (8-wide) or AVX-512
+// (16-wide, its comparisons in mask registers), chosen from the compiler's
+// flags. The edge functions are difference_of_products, as in
 // the scalar test: two FMAs where the hardware has FMA, otherwise products
 // of floats taken exactly in double (math/float.hpp). With
-// PRISM_BVH_NO_SIMD, or 8-wide packets without AVX and FMA, each lane goes
+// PRISM_BVH_NO_SIMD, or 8-wide packets without AVX and FMA (16-wide without
+// AVX-512 and FMA), each lane goes
 // through the scalar test. Lanes that the single-precision test cannot decide
 // (an edge function exactly zero, which the scalar test re-evaluates in
 // double, or a t too small to be proven positive) are handed to the scalar
 // test too, so both paths give the same answers.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include "prism/attributes.hpp"
 #include "prism/geometry/triangle.hpp"
 
-// The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4 or
-// 8), otherwise 8 where the compiler may use AVX and FMA and 4 elsewhere.
-// docs/performance.md has the measurements behind the default.
+// The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4, 8
+// or 16), otherwise 16 where the compiler may use AVX-512 and FMA, 8 where it
+// may use AVX and FMA, and 4 elsewhere. MeshAccel's leaves hold one packet
+// (BVHBuildOptions::max_leaf_size), so the width also sets the leaf size.
+// docs/performance.md has the measurements behind the default (sixteen
+// lanes were measured on AMD Zen 5, whose vector units are 512 bits wide;
+// where 512-bit operations run at half rate or lower the clock, 8 may be
+// the better choice).
 #if defined(PRISM_TRIANGLE_PACKET_WIDTH)
 #define PRISM_TRIANGLE_PACKET_W PRISM_TRIANGLE_PACKET_WIDTH
+#elif defined(__FMA__) && defined(__AVX512F__) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
+#define PRISM_TRIANGLE_PACKET_W 16
 #elif defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
 #define PRISM_TRIANGLE_PACKET_W 8
 #else
@@ -31,6 +41,11 @@
 #endif
 
 #if defined(PRISM_BVH_NO_SIMD)
+#elif PRISM_TRIANGLE_PACKET_W == 16
+#if defined(__FMA__) && defined(__AVX512F__) && defined(PRISM_FAST_FMAF)
+#include <immintrin.h>
+#define PRISM_TRIANGLE_SIMD 1
+#endif
 #elif PRISM_TRIANGLE_PACKET_W == 8
 #if defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF)
 #include <immintrin.h>
@@ -49,11 +64,12 @@
 namespace prism {
 
 inline constexpr int triangle_packet_width = PRISM_TRIANGLE_PACKET_W;
-static_assert(triangle_packet_width == 4 || triangle_packet_width == 8);
+static_assert(triangle_packet_width == 4 || triangle_packet_width == 8 || triangle_packet_width == 16);
 
 // v[3 * vertex + axis][lane]. Unused lanes repeat a triangle of the packet
 // (a repeated triangle finds the same hit again, which changes nothing).
-struct alignas(4 * triangle_packet_width) TrianglePacket {
+// (Aligned to its width in bytes, at most a cache line: one vector load per row.)
+struct alignas(std::min(4 * triangle_packet_width, 64)) TrianglePacket {
   Float v[9][triangle_packet_width];
 
   Point3f vertex(int lane, int k) const { return {v[3 * k][lane], v[3 * k + 1][lane], v[3 * k + 2][lane]}; }
@@ -83,7 +99,37 @@ PRISM_COLD inline std::optional<TriangleHit> intersect_lane(const TrianglePacket
 #if defined(PRISM_TRIANGLE_SIMD)
 // Four or eight lanes, one set of names.
 namespace pk {
-#if PRISM_TRIANGLE_PACKET_W == 8
+#if PRISM_TRIANGLE_PACKET_W == 16
+// Comparisons give mask registers (M), which band, bor and mask take.
+using V = __m512;
+using M = __mmask16;
+inline V load(const float* p) { return _mm512_load_ps(p); }
+inline V set1(float x) { return _mm512_set1_ps(x); }
+inline V zero() { return _mm512_setzero_ps(); }
+inline V add(V a, V b) { return _mm512_add_ps(a, b); }
+inline V sub(V a, V b) { return _mm512_sub_ps(a, b); }
+inline V mul(V a, V b) { return _mm512_mul_ps(a, b); }
+inline V div(V a, V b) { return _mm512_div_ps(a, b); }
+// difference_of_products: c*d, then fma(a, b, -cd) + fma(-c, d, cd).
+inline V dop(V a, V b, V c, V d) {
+  V cd = _mm512_mul_ps(c, d);
+  return _mm512_add_ps(_mm512_fmsub_ps(a, b, cd), _mm512_fnmadd_ps(c, d, cd));
+}
+// (The zero-masking form with every lane set is the same instruction; GCC 12
+// warns that the plain form's undefined pass-through register may be used
+// uninitialized.)
+inline V vmax(V a, V b) { return _mm512_maskz_max_ps(M(0xffff), a, b); }
+inline M band(M a, M b) { return M(a & b); }
+inline M bor(M a, M b) { return M(a | b); }
+inline M eq(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ); }
+inline M lt(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
+inline M le(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+inline M gt(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
+inline M ge(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
+inline int mask(M a) { return int(a); }
+inline void store(float* p, V a) { _mm512_store_ps(p, a); }
+inline V abs(V a) { return _mm512_abs_ps(a); }
+#elif PRISM_TRIANGLE_PACKET_W == 8
 using V = __m256;
 inline V load(const float* p) { return _mm256_load_ps(p); }
 inline V set1(float x) { return _mm256_set1_ps(x); }
@@ -149,7 +195,7 @@ inline V abs(V a) { return _mm_and_ps(a, _mm_castsi128_ps(_mm_set1_epi32(0x7ffff
 #endif
 }  // namespace pk
 
-// The scalar test's arithmetic on four lanes. Returns the mask of lanes with a
+// The scalar test's arithmetic on a packet's lanes. Returns the mask of lanes with a
 // proven hit in (0, t_max); `undecided` gets the lanes that need the scalar
 // test. t, e0..e2 and inv_det are written for the hit lanes.
 template <int KZ>
@@ -170,8 +216,8 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
   V e1 = dop(x[2], y[0], y[2], x[0]);
   V e2 = dop(x[0], y[1], y[0], x[1]);
   const V z0 = zero();
-  V any_neg = bor(bor(lt(e0, z0), lt(e1, z0)), lt(e2, z0));
-  V any_pos = bor(bor(gt(e0, z0), gt(e1, z0)), gt(e2, z0));
+  auto any_neg = bor(bor(lt(e0, z0), lt(e1, z0)), lt(e2, z0));
+  auto any_pos = bor(bor(gt(e0, z0), gt(e1, z0)), gt(e2, z0));
   int live = lanes & ~mask(band(any_neg, any_pos));
   // Edge functions of both signs reject a lane whatever a zero one would be
   // in double: the signs of difference_of_products are exact, so the scalar
@@ -194,8 +240,8 @@ inline int intersect_packet_simd(const TrianglePacket& p, const Point3f& o, cons
   V lim = mul(set1(t_max * triangle_range_widen), det);
   // det < 0: reject t_scaled >= 0 or t_scaled < t_max * det; det > 0: reject
   // t_scaled <= 0 or t_scaled > t_max * det; det == 0 (or NaN): reject.
-  V ok_neg = band(lt(det, z0), band(lt(t_scaled, z0), ge(t_scaled, lim)));
-  V ok_pos = band(gt(det, z0), band(gt(t_scaled, z0), le(t_scaled, lim)));
+  auto ok_neg = band(lt(det, z0), band(lt(t_scaled, z0), ge(t_scaled, lim)));
+  auto ok_pos = band(gt(det, z0), band(gt(t_scaled, z0), le(t_scaled, lim)));
   live &= mask(bor(ok_neg, ok_pos));
   if (live == 0) return 0;
 
@@ -242,14 +288,14 @@ inline std::optional<PacketHit> intersect_packet(const TrianglePacket& p, const 
   int hit = detail::intersect_packet_simd<KZ>(p, o, pc, t_max, lanes, &undecided, &t, e, &inv_det);
   if (hit != 0) {
     constexpr int W = triangle_packet_width;
-    alignas(32) Float ts[W];
+    alignas(64) Float ts[W];
     detail::pk::store(ts, t);
     int l = std::countr_zero(unsigned(hit));
     for (int m = hit & (hit - 1); m != 0; m &= m - 1) {
       int c = std::countr_zero(unsigned(m));
       if (ts[c] < ts[l]) l = c;
     }
-    alignas(32) Float es[3][W], id[W];
+    alignas(64) Float es[3][W], id[W];
     for (int k = 0; k < 3; ++k) detail::pk::store(es[k], e[k]);
     detail::pk::store(id, inv_det);
     best = PacketHit{{ts[l], es[0][l] * id[l], es[1][l] * id[l], es[2][l] * id[l]}, l};
