@@ -85,10 +85,10 @@ struct alignas(32) BVHNode {
 static_assert(sizeof(BVHNode) == 32);
 
 struct BVHBuildOptions {
-  // The most primitives in a leaf; 0 (the default) means one leaf_block, and
-  // at least 8 (leaf_size_limit()): MeshAccel's leaves then hold one packet of
-  // triangles, 8 or, with AVX-512, 16 (accel/triangle_packet.hpp), and 4-wide
-  // packets two.
+  // The most primitives in a leaf; 0 (the default) or less means one
+  // leaf_block, and at least 8 (leaf_size_limit()): MeshAccel's leaves then
+  // hold one packet of triangles, 8 or, with 16-wide packets (the default
+  // with AVX-512), 16 (accel/triangle_packet.hpp), and 4-wide packets two.
   int max_leaf_size = 0;
   // Primitives a leaf tests together (triangle packets): the SAH counts a
   // leaf's cost in blocks of this many, and each leaf's range in prims()

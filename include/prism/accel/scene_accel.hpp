@@ -145,10 +145,11 @@ class MeshAccel {
 
  private:
   static constexpr int W = triangle_packet_width;
-  // A packet of a leaf's triangles with their indices in the mesh: a hit
-  // reads its triangle from the cache line it was tested in, and a shadow
-  // ray's `skip` is compared without a lookup (with 8 lanes the indices fill
-  // the fifth cache line, which the vertices used by half; with 16, a tenth).
+  // A packet of a leaf's triangles with their indices in the mesh, next to
+  // them: a hit reads its triangle without a lookup elsewhere, and a shadow
+  // ray's `skip` is compared the same way (with 8 lanes the indices fill the
+  // fifth cache line, which the vertices use by half; with 16, a tenth line
+  // of their own).
   struct alignas(W >= 8 ? 64 : 32) LeafPacket {
     TrianglePacket tris;
     uint32_t tri[W];

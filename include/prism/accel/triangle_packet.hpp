@@ -10,7 +10,7 @@
 // the scalar test: two FMAs where the hardware has FMA, otherwise products
 // of floats taken exactly in double (math/float.hpp). With
 // PRISM_BVH_NO_SIMD, or 8-wide packets without AVX and FMA (16-wide without
-// AVX-512 and FMA), each lane goes
+// 512-bit AVX-512), each lane goes
 // through the scalar test. Lanes that the single-precision test cannot decide
 // (an edge function exactly zero, which the scalar test re-evaluates in
 // double, or a t too small to be proven positive) are handed to the scalar
@@ -22,17 +22,28 @@
 #include "prism/attributes.hpp"
 #include "prism/geometry/triangle.hpp"
 
+// 512-bit AVX-512 registers: __AVX512F__, unless the compiler has the
+// AVX10 notion of AVX-512 limited to 256 bits (GCC 14 and clang 18 define
+// __EVEX512__ when 512-bit registers are allowed; older ones always allow
+// them).
+#if defined(__AVX512F__) &&                                                                   \
+    (defined(__EVEX512__) || (defined(__clang__) && __clang_major__ < 18) ||                  \
+     (defined(__GNUC__) && !defined(__clang__) && __GNUC__ < 14))
+#define PRISM_AVX512_ZMM 1
+#endif
+
 // The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4, 8
-// or 16), otherwise 16 where the compiler may use AVX-512 and FMA, 8 where it
-// may use AVX and FMA, and 4 elsewhere. MeshAccel's leaves hold one packet
-// (BVHBuildOptions::max_leaf_size), so the width also sets the leaf size.
-// docs/performance.md has the measurements behind the default (sixteen
-// lanes were measured on AMD Zen 5, whose vector units are 512 bits wide;
-// where 512-bit operations run at half rate or lower the clock, 8 may be
-// the better choice).
+// or 16), otherwise 16 where the compiler may use 512-bit AVX-512 registers
+// (whose FMA instructions are part of AVX-512F), 8 where it may use AVX and
+// FMA, and 4 elsewhere. With the default BVHBuildOptions::max_leaf_size,
+// MeshAccel's leaves hold one packet when it is 8 or 16 wide (two of 4), so
+// the width also sets the leaf size. docs/performance.md has the
+// measurements behind the default (sixteen lanes were measured on AMD Zen 5,
+// whose vector units are 512 bits wide; where 512-bit operations run at half
+// rate or lower the clock, 8 may be the better choice).
 #if defined(PRISM_TRIANGLE_PACKET_WIDTH)
 #define PRISM_TRIANGLE_PACKET_W PRISM_TRIANGLE_PACKET_WIDTH
-#elif defined(__FMA__) && defined(__AVX512F__) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
+#elif defined(PRISM_AVX512_ZMM) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
 #define PRISM_TRIANGLE_PACKET_W 16
 #elif defined(__FMA__) && defined(__AVX__) && defined(PRISM_FAST_FMAF) && !defined(PRISM_BVH_NO_SIMD)
 #define PRISM_TRIANGLE_PACKET_W 8
@@ -42,7 +53,7 @@
 
 #if defined(PRISM_BVH_NO_SIMD)
 #elif PRISM_TRIANGLE_PACKET_W == 16
-#if defined(__FMA__) && defined(__AVX512F__) && defined(PRISM_FAST_FMAF)
+#if defined(PRISM_AVX512_ZMM) && defined(PRISM_FAST_FMAF)
 #include <immintrin.h>
 #define PRISM_TRIANGLE_SIMD 1
 #endif
@@ -97,7 +108,7 @@ PRISM_COLD inline std::optional<TriangleHit> intersect_lane(const TrianglePacket
 }
 
 #if defined(PRISM_TRIANGLE_SIMD)
-// Four or eight lanes, one set of names.
+// Four, eight or sixteen lanes, one set of names.
 namespace pk {
 #if PRISM_TRIANGLE_PACKET_W == 16
 // Comparisons give mask registers (M), which band, bor and mask take.
