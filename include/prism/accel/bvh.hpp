@@ -1438,10 +1438,12 @@ class BVH {
     // traversal stacks (max_sah_depth + 32 entries) never overflow.
     static constexpr int max_sah_depth = 48;
 
-    Builder(const BVHBuildOptions& o, int t) : opt(o), threads(t), block(uint32_t(std::max(1, o.leaf_block))) {
+    Builder(const BVHBuildOptions& o, int t)
+        : opt(o), threads(t), block(uint32_t(std::max(1, o.leaf_block))), max_leaf(uint32_t(o.leaf_size_limit())) {
       if (std::has_single_bit(block)) block_shift = std::countr_zero(block);
     }
     uint32_t block;
+    uint32_t max_leaf;  // opt.leaf_size_limit(), resolved once
     int block_shift = -1;  // log2(block) when block is a power of two
     // The cost of testing n primitives: the blocks they fill. (A division per
     // SAH candidate otherwise; leaf blocks are powers of two in practice.)
@@ -1565,12 +1567,12 @@ class BVH {
       // / A >= 1 (and the ties, NaN costs and centroids that coincide all
       // end in a leaf below too). Half of all nodes are such leaves, so
       // binning them was a large part of the build.
-      if (n <= block && n <= uint32_t(opt.leaf_size_limit()) && opt.traversal_cost >= 1) return make_leaf();
+      if (n <= block && n <= max_leaf && opt.traversal_cost >= 1) return make_leaf();
       PrimRef* r = refs.get();
       Bounds3f lb, lc, rb, rc;  // children's bounds and centroid bounds
       uint32_t mid;
       if (depth >= max_sah_depth) {
-        if (n <= uint32_t(opt.leaf_size_limit())) return make_leaf();
+        if (n <= max_leaf) return make_leaf();
         mid = begin + n / 2;
         lc = centroid_bounds(r, begin, mid, &lb);
         rc = centroid_bounds(r, mid, end, &rb);
@@ -1725,12 +1727,12 @@ class BVH {
         Float split_cost = opt.traversal_cost + (area > 0 ? best_cost / area : blocks(n));
         if (best_axis < 0) {
           // All centroids coincide: split in the middle if the leaf would be too big.
-          if (n <= uint32_t(opt.leaf_size_limit())) return make_leaf();
+          if (n <= max_leaf) return make_leaf();
           mid = begin + n / 2;
           lc = centroid_bounds(r, begin, mid, &lb);
           rc = centroid_bounds(r, mid, end, &rb);
         } else {
-          if (n <= uint32_t(opt.leaf_size_limit()) && leaf_cost <= split_cost) return make_leaf();
+          if (n <= max_leaf && leaf_cost <= split_cost) return make_leaf();
           int a = best_axis;
           Side ls, rs;
           PrimRef* first = partition_by_bin(r + begin, r + end, a, lo[a], k[a], best_split, ls, rs);
