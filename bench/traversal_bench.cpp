@@ -697,7 +697,11 @@ std::vector<InstanceRow> g_instance_rows;
 // This binary's BVH layout: node width, float or quantized child boxes, and
 // the triangle packets' width (all chosen at compile time).
 std::string layout_name() {
-  constexpr bool quantized = std::is_same_v<detail::BVHWideNode, detail::BVHQuantWideNode>;
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
+  constexpr bool quantized = true;
+#else
+  constexpr bool quantized = false;
+#endif
   return "nodes" + std::to_string(detail::wide_width) + (quantized ? "_quantized" : "_float") + "_packets" +
          std::to_string(triangle_packet_width);
 }

@@ -12,7 +12,7 @@ cd "$root"
 bash scripts/setup.sh libembree-dev libbenchmark-dev gnuplot-nox
 cmake -S . -B build/bench -G Ninja -DCMAKE_BUILD_TYPE=Release -DPRISM_BUILD_BENCH=ON \
   -DPRISM_BUILD_TESTS=OFF -DPRISM_BUILD_EXAMPLES=OFF >/dev/null
-layouts=(w4 quant w4_quant)
+layouts=(w8 w4 quant w4_quant)
 cmake --build build/bench --target traversal_bench render_bench "${layouts[@]/#/traversal_bench_}"
 for a in "$@"; do
   if [ "$a" = --help ] || [ "$a" = -h ]; then exec ./build/bench/bench/traversal_bench --help; fi

@@ -16,8 +16,8 @@
 //
 // Traversal runs on a second layout derived from the binary tree: nodes with
 // up to eight children whose boxes sit side by side (as in Embree's BVH8), so
-// one visit tests eight boxes in one SIMD pass (AVX; two with SSE2) and a ray
-// makes a fraction of the binary tree's visits and cache misses. Which binary
+// one visit tests eight boxes in one SIMD pass (AVX; two with SSE2), or, with
+// AVX-512, up to sixteen in one pass, and a ray makes a fraction of the binary tree's visits and cache misses. Which binary
 // nodes a wide node gathers is chosen for the least SAH cost of the whole
 // layout (BVH::Collapse). Each lane's box test is exactly
 // intersect_node's, so a ray reaches the same primitives as through the
@@ -290,17 +290,33 @@ void parallel_chunks(size_t n, int chunks, F&& fn) {
 // box (+inf, -inf) and an empty leaf, so they are never entered by a ray
 // without NaNs and are harmless for one with them.
 //
-// The width is 8 by default (256-byte nodes, one AVX pass or two SSE passes
-// per visit); -DPRISM_BVH_WIDTH=4 selects 4-wide nodes (128 bytes, one SSE
-// pass). docs/performance.md has the measurements behind the default.
+// The width: PRISM_BVH_WIDTH if the user sets it (4, 8 or 16), otherwise 16
+// where the compiler may use 512-bit AVX-512 registers (512-byte nodes, one
+// AVX-512 pass per visit) and 8 elsewhere (256-byte nodes, one AVX pass or
+// two SSE passes per visit; also the width of quantized nodes, which are at
+// most 8 wide). 4-wide nodes are 128 bytes, one SSE pass. 16-wide nodes
+// without AVX-512 are tested in groups of eight (AVX) or four (SSE) lanes.
+// docs/performance.md has the measurements behind the default (16 lanes
+// were measured on AMD Zen 5, whose vector units are 512 bits wide).
 #if defined(PRISM_BVH_WIDTH)
-inline constexpr int wide_width = PRISM_BVH_WIDTH;
+#define PRISM_BVH_W PRISM_BVH_WIDTH
+#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && \
+    !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
+#define PRISM_BVH_W 16
 #else
-inline constexpr int wide_width = 8;
+#define PRISM_BVH_W 8
 #endif
-static_assert(wide_width == 4 || wide_width == 8, "PRISM_BVH_WIDTH must be 4 or 8");
-#if defined(PRISM_BVH_AVX) && !(defined(PRISM_BVH_WIDTH) && PRISM_BVH_WIDTH == 4)
+inline constexpr int wide_width = PRISM_BVH_W;
+static_assert(wide_width == 4 || wide_width == 8 || wide_width == 16, "PRISM_BVH_WIDTH must be 4, 8 or 16");
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
+static_assert(wide_width <= 8, "quantized BVH nodes are 4 or 8 wide (PRISM_BVH_WIDTH)");
+#endif
+// The box test's registers: 8 lanes of AVX for 8-wide nodes, 16 of AVX-512
+// (with the directed-FMA path) for 16-wide ones; SSE otherwise.
+#if defined(PRISM_BVH_AVX) && PRISM_BVH_W == 8
 #define PRISM_BVH_AVX_NODES 1
+#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && PRISM_BVH_W == 16
+#define PRISM_BVH_ZMM_NODES 1
 #endif
 struct alignas(64) BVHFloatWideNode {
   static constexpr uint32_t interior = UINT32_MAX;
@@ -310,6 +326,7 @@ struct alignas(64) BVHFloatWideNode {
 };
 static_assert(sizeof(BVHFloatWideNode) == 32 * wide_width);
 
+#if PRISM_BVH_W <= 8  // (quantized nodes are at most 8 wide: `lanes` is a byte)
 // The compact layout (-DPRISM_BVH_QUANTIZED=1), after Ylitie et al. 2017
 // ("Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs")
 // and Embree's compressed nodes: per node and axis an origin and a power-of-
@@ -423,6 +440,7 @@ inline Bounds3f dequantized_box(const BVHQuantWideNode& n, int l) {
 }
 // The box traversal tests for lane l of a node of either layout.
 inline Bounds3f lane_box(const BVHQuantWideNode& n, int l) { return dequantized_box(n, l); }
+#endif
 inline Bounds3f lane_box(const BVHFloatWideNode& n, int l) {
   constexpr int W = wide_width;
   Bounds3f b;
@@ -453,9 +471,39 @@ using BVHWideNode = BVHFloatWideNode;
 #endif
 
 #if defined(PRISM_BVH_SSE)
-// The lanes of one box-test register: eight with AVX nodes, four otherwise.
+// The lanes of one box-test register: sixteen with AVX-512 nodes, eight with
+// AVX nodes, four otherwise.
 namespace bx {
-#if defined(PRISM_BVH_AVX_NODES)
+#if defined(PRISM_BVH_ZMM_NODES)
+using V = __m512;
+using I = __m512i;
+inline V set1(Float x) { return _mm512_set1_ps(x); }
+inline V zero() { return _mm512_setzero_ps(); }
+inline V sub(V a, V b) { return _mm512_sub_ps(a, b); }
+inline V add(V a, V b) { return _mm512_add_ps(a, b); }
+inline V mul(V a, V b) { return _mm512_mul_ps(a, b); }
+inline V vmax(V a, V b) { return _mm512_maskz_max_ps(__mmask16(0xffff), a, b); }
+inline V vmin(V a, V b) { return _mm512_maskz_min_ps(__mmask16(0xffff), a, b); }
+inline void store(Float* p, V a) { _mm512_storeu_ps(p, a); }  // (callers align to 64; 32 is enough)
+inline V load(const Float* p) { return _mm512_load_ps(p); }
+inline I fmsub_bits(V a, V b, V c) { return _mm512_castps_si512(_mm512_fmsub_ps(a, b, c)); }
+inline I bits(V a) { return _mm512_castps_si512(a); }
+inline V as_v(I a) { return _mm512_castsi512_ps(a); }
+inline I izero() { return _mm512_setzero_si512(); }
+inline I imax(I a, I b) { return _mm512_maskz_max_epi32(__mmask16(0xffff), a, b); }
+inline I imin(I a, I b) { return _mm512_maskz_min_epi32(__mmask16(0xffff), a, b); }
+inline I iadd(I a, int k) { return _mm512_add_epi32(a, _mm512_set1_epi32(k)); }
+inline I iadd(I a, I b) { return _mm512_add_epi32(a, b); }
+inline void store_bits(Float* p, I a) { _mm512_storeu_ps(p, _mm512_castsi512_ps(a)); }
+// Comparisons give mask registers, which are the lane masks themselves; no
+// traversal reads a vector of the lanes entered (`inside`) here.
+using M = __mmask16;
+inline M le(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+inline M igt(I a, I b) { return _mm512_cmpgt_epi32_mask(a, b); }
+inline int movemask(M m) { return int(m); }
+inline int sign_mask(M m) { return int(m); }
+inline void keep_inside(V*, M) {}
+#elif defined(PRISM_BVH_AVX_NODES)
 using V = __m256;
 inline V set1(Float x) { return _mm256_set1_ps(x); }
 inline V zero() { return _mm256_setzero_ps(); }
@@ -534,6 +582,15 @@ inline I iadd(I a, I b) { return _mm_add_epi32(a, b); }
 inline I igt(I a, I b) { return _mm_cmpgt_epi32(a, b); }
 inline int sign_mask(I a) { return _mm_movemask_ps(_mm_castsi128_ps(a)); }
 inline void store_bits(Float* p, I a) { _mm_store_ps(p, _mm_castsi128_ps(a)); }
+#endif
+#endif
+#if !defined(PRISM_BVH_ZMM_NODES)
+// Hands the vector of the lanes entered to a caller that asks for it.
+inline void keep_inside(V* inside, V in) {
+  if (inside) *inside = in;
+}
+#if defined(PRISM_BVH_FMA_SLABS)
+inline void keep_inside(V* inside, I in) { keep_inside(inside, as_v(in)); }
 #endif
 #endif
 }  // namespace bx
@@ -698,8 +755,8 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
     // +-0 gives a small positive t_cull); +inf + 5 ulps is a positive NaN
     // pattern, above every t0. (One comparison whose result is the mask: its
     // complement cost two more operations per visit; ab 1.01-1.02.)
-    const I in = igt(iadd(t1, bits(r.six)), t0);
-    if (inside) *inside = as_v(in);
+    const auto in = igt(iadd(t1, bits(r.six)), t0);
+    keep_inside(inside, in);
     return sign_mask(in);
   }
 #endif
@@ -714,8 +771,8 @@ inline int slab_lanes(const bx::V* pn, const bx::V* pf, const WideRayPrecomp& r,
   // widen_exit, lane by lane, then min with t_cull.
   t1 = vmin(mul(add(t1, set1(box_exit_slack)), set1(box_exit_widen)), set1(t_cull));
   store(t_entry, t0);
-  const V in = le(t0, t1);
-  if (inside) *inside = in;
+  const auto in = le(t0, t1);
+  keep_inside(inside, in);
   return movemask(in);
 }
 #else
@@ -736,7 +793,8 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 #endif
 
 // The slab test of every lane of a wide node, a register of lanes at a time
-// (eight with AVX nodes, four with SSE, one in the portable build):
+// (sixteen with AVX-512 nodes, eight with AVX nodes, four with SSE, one in the
+// portable build):
 // planes(h, pn, pf) writes the near and far planes per axis of the lanes
 // from h on.
 //
@@ -800,6 +858,7 @@ inline __m256 lanes_inside(unsigned mask) {
 }
 #endif
 
+#if PRISM_BVH_W <= 8  // (quantized nodes)
 // The same for a quantized node: each lane's planes are dequantized (exactly
 // as dequantize() computes them) and then tested as above, so every lane's
 // result is the float node's on the box dequantized_box() gives. An axis that
@@ -835,6 +894,7 @@ inline int intersect_wide(const BVHQuantWideNode& n, const WideRayPrecomp& r, Fl
 #endif
   return mask & n.lanes;
 }
+#endif
 
 // Starts loading a wide node that traversal has deferred, so that it is in
 // cache by the time the stack hands it back.
@@ -857,7 +917,8 @@ inline void prefetch(const BVHWideNode* n) {
 }
 
 // Asks for the cache line of a node's child[0]: with 8 lanes the line of all
-// its links (child, count), the last of a float node's four lines and the
+// its links (child, count), the last of a float node's four lines (with 16
+// lanes the children's line; asking for the counts' too measured nothing) and the
 // second of a quantized node's two.
 inline void prefetch_links(const BVHWideNode* n) {
   const char* line = reinterpret_cast<const char*>(n->child);
@@ -881,8 +942,32 @@ inline void nearer_first(const Float* t_entry, int& a, int& b) {
   b ^= x;
 }
 
-#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
-#define PRISM_BVH_SORT_AVX2 1
+// The same ordering without AVX2: (distance, lane) keys sorted by insertion
+// (distances are >= +0, so their bit patterns order like their values; ties
+// keep lane order), then written farthest first. The vector of lanes not
+// entered is not needed here.
+template <bool with_t = true>
+inline int push_by_distance_scalar(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
+                                   uint32_t* count, Float* t) {
+  uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
+  int n = 0;
+  for (; mask != 0; mask &= mask - 1) {
+    int c = std::countr_zero(mask);
+    uint64_t kc = uint64_t(std::bit_cast<uint32_t>(t_entry[c])) << 32 | uint64_t(c);
+    int j = n++;
+    for (; j > 0 && kc < key[j - 1]; --j) key[j] = key[j - 1];
+    key[j] = kc;
+  }
+  for (int j = n - 1, s = 0; j > 0; --j, ++s) {
+    int c = int(key[j] & 0xff);
+    child[s] = node.child[c];
+    count[s] = node.count[c];
+    if constexpr (with_t) t[s] = t_entry[c];
+  }
+  return int(key[0] & 0xff);
+}
+
+#if defined(__AVX2__) && (defined(PRISM_BVH_AVX_NODES) || defined(PRISM_BVH_ZMM_NODES))
 // Eight int32 keys in ascending order: Batcher's odd-even merge sort, 19
 // comparators in 6 layers, each layer a permutation to the partner lane, a
 // min, a max and a blend keeping the max in the upper lane of each pair.
@@ -900,6 +985,10 @@ inline __m256i sort8(__m256i x) {
   x = layer(x, _mm256_setr_epi32(0, 2, 1, 4, 3, 6, 5, 7), integral_constant<int, 0x54>{});
   return x;
 }
+#endif
+
+#if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
+#define PRISM_BVH_SORT_AVX2 1
 
 // Closest-hit ordering of a node's entered lanes (`mask`, two or more) without
 // branches: the lanes sorted by entry distance (ties, and distances within 8
@@ -945,32 +1034,51 @@ inline unsigned inner_lanes(const BVHWideNode& node) {
   __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(node.count));
   return unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(c, _mm256_set1_epi32(-1)))));
 }
-#else
-// The same ordering without AVX2: (distance, lane) keys sorted by insertion
-// (distances are >= +0, so their bit patterns order like their values; ties
-// keep lane order), then written farthest first. The vector of lanes not
-// entered is not needed here.
+#elif defined(PRISM_BVH_ZMM_NODES)
+// 16-wide nodes: the same ordering, the keys with the lane in their low four
+// bits. The entered lanes' keys are packed into the low eight lanes and
+// sorted by the 8-key network when at most eight are entered (the usual
+// case: the mask-register compress leaves the others INT32_MAX), by
+// insertion otherwise. Eight entries are stored, as above. (The all-lanes
+// masked forms of the intrinsics are the plain instructions; GCC 12 takes
+// the plain forms' undefined pass-through register for an uninitialised
+// read, -Wmaybe-uninitialized.)
 template <bool with_t = true>
 inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*inside*/, const Float* t_entry,
                             uint32_t* child, uint32_t* count, Float* t) {
-  uint64_t key[wide_width] = {};  // (initialised: mask is never 0, but GCC cannot tell)
-  int n = 0;
-  for (; mask != 0; mask &= mask - 1) {
-    int c = std::countr_zero(mask);
-    uint64_t kc = uint64_t(std::bit_cast<uint32_t>(t_entry[c])) << 32 | uint64_t(c);
-    int j = n++;
-    for (; j > 0 && kc < key[j - 1]; --j) key[j] = key[j - 1];
-    key[j] = kc;
-  }
-  for (int j = n - 1, s = 0; j > 0; --j, ++s) {
-    int c = int(key[j] & 0xff);
-    child[s] = node.child[c];
-    count[s] = node.count[c];
-    if constexpr (with_t) t[s] = t_entry[c];
-  }
-  return int(key[0] & 0xff);
+  const int n = std::popcount(mask);
+  if (n > 8) return push_by_distance_scalar<with_t>(node, mask, t_entry, child, count, t);
+  const __mmask16 all = 0xffff;
+  auto low8 = [](__m512i v) { return _mm512_maskz_extracti64x4_epi64(__mmask8(0xff), v, 0); };
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i tv = _mm512_loadu_si512(t_entry);
+  const __m512i key = _mm512_or_si512(_mm512_maskz_andnot_epi32(all, _mm512_set1_epi32(15), tv), lane);
+  const __m256i packed = low8(_mm512_mask_compress_epi32(_mm512_set1_epi32(INT32_MAX), __mmask16(mask), key));
+  const __m256i by_distance = _mm256_and_si256(sort8(packed), _mm256_set1_epi32(15));
+  // Slot j of the push holds the (n - 1 - j)-th nearest; lanes 8-15 of the
+  // index vector are undefined and their results unused.
+  const __m512i slot = _mm512_castsi256_si512(_mm256_permutevar8x32_epi32(
+      by_distance, _mm256_sub_epi32(_mm256_set1_epi32(n - 1), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))));
+  auto gather = [&](const void* p) { return low8(_mm512_maskz_permutexvar_epi32(all, slot, _mm512_loadu_si512(p))); };
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(child), gather(node.child));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
+  if constexpr (with_t) _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), gather(t_entry));
+  // The nearest lane: the horizontal minimum of the packed keys.
+  __m256i m = _mm256_min_epi32(packed, _mm256_permute2x128_si256(packed, packed, 0x01));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
+  return _mm256_cvtsi256_si32(m) & 15;
 }
-
+// The lanes of a node that hold inner nodes (bit l for lane l).
+inline unsigned inner_lanes(const BVHWideNode& node) {
+  return unsigned(_mm512_cmpeq_epi32_mask(_mm512_loadu_si512(node.count), _mm512_set1_epi32(-1)));
+}
+#else
+template <bool with_t = true>
+inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*inside*/, const Float* t_entry,
+                            uint32_t* child, uint32_t* count, Float* t) {
+  return push_by_distance_scalar<with_t>(node, mask, t_entry, child, count, t);
+}
 inline unsigned inner_lanes(const BVHWideNode& node) {
   unsigned m = 0;
   for (int l = 0; l < wide_width; ++l) m |= unsigned(node.count[l] == BVHWideNode::interior) << l;
@@ -996,7 +1104,7 @@ class BVH {
  public:
   // Depth is at most 48 SAH levels plus 32 halvings (see Builder::max_sah_depth).
   static constexpr int traversal_stack_size = 96;
-  // The wide layout is no deeper than the binary tree; a visit defers at most seven children.
+  // The wide layout is no deeper than the binary tree; a visit defers at most wide_width - 1 children.
   static constexpr int wide_stack_size = (detail::wide_width - 1) * traversal_stack_size + detail::wide_width;
   BVH() = default;
 
@@ -1219,7 +1327,7 @@ class BVH {
       // asked for now, it arrives with the planes instead of after them (one
       // cache miss instead of two in a row when the node is not in cache).
       detail::prefetch_links(&node);
-      alignas(32) Float t_entry[detail::wide_width];
+      alignas(64) Float t_entry[detail::wide_width];
       detail::LaneMaskV inside{};  // the lanes entered, for push_by_distance (AVX nodes only)
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &inside));
       if (mask != 0) {
@@ -1311,7 +1419,7 @@ class BVH {
     for (;;) {
       const detail::BVHWideNode& node = m_wide[idx];
       detail::prefetch_links(&node);
-      alignas(32) Float t_entry[detail::wide_width];
+      alignas(64) Float t_entry[detail::wide_width];
       detail::LaneMaskV inside{};
       unsigned mask = unsigned(detail::intersect_wide(node, r, t_cull, t_entry, &inside));
       if (mask != 0) {

@@ -22,16 +22,6 @@
 #include "prism/attributes.hpp"
 #include "prism/geometry/triangle.hpp"
 
-// 512-bit AVX-512 registers: __AVX512F__, unless the compiler has the
-// AVX10 notion of AVX-512 limited to 256 bits (GCC 14 and clang 18 define
-// __EVEX512__ when 512-bit registers are allowed; older ones always allow
-// them).
-#if defined(__AVX512F__) &&                                                                   \
-    (defined(__EVEX512__) || (defined(__clang__) && __clang_major__ < 18) ||                  \
-     (defined(__GNUC__) && !defined(__clang__) && __GNUC__ < 14))
-#define PRISM_AVX512_ZMM 1
-#endif
-
 // The packet width: PRISM_TRIANGLE_PACKET_WIDTH if the user sets it (4, 8
 // or 16), otherwise 16 where the compiler may use 512-bit AVX-512 registers
 // (whose FMA instructions are part of AVX-512F), 8 where it may use AVX and

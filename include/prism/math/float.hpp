@@ -96,6 +96,17 @@ constexpr Float degrees(Float rad) { return (180 / pi) * rad; }
 #define PRISM_FAST_FMAF 1
 #endif
 
+// PRISM_AVX512_ZMM: the compiler may use 512-bit AVX-512 registers:
+// __AVX512F__, unless it has the AVX10 notion of AVX-512 limited to 256 bits
+// (GCC 14 and clang 18 define __EVEX512__ when 512-bit registers are allowed;
+// older ones always allow them). The triangle packets and the BVH's nodes
+// take 16 lanes then.
+#if defined(__AVX512F__) &&                                                                   \
+    (defined(__EVEX512__) || (defined(__clang__) && __clang_major__ < 18) ||                  \
+     (defined(__GNUC__) && !defined(__clang__) && __GNUC__ < 14))
+#define PRISM_AVX512_ZMM 1
+#endif
+
 // a*b - c*d and a*b + c*d, accurate to within 1.5 ulp, with the exact sign.
 // With a hardware FMA (PRISM_FAST_FMAF): Kahan's algorithm, two FMAs. Without
 // one, where std::fma is a slow library call: in double, where the product of
