@@ -18,6 +18,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <type_traits>
 
 #include "prism/accel/bvh.hpp"
 #include "prism/sampling/pcg32.hpp"
@@ -375,14 +376,38 @@ TEST_CASE("the wide box test's slack is the one it documents, no more", "[accel]
 
 #endif
 
+// The traversal layout and its width are the ones the build's flags select.
+TEST_CASE("the traversal layout is the one the build selects", "[accel][bvh][slab]") {
+  constexpr int W = detail::wide_width;
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
+  CHECK(std::is_same_v<detail::BVHWideNode, detail::BVHQuantWideNode>);
+  CHECK(sizeof(detail::BVHWideNode) == (W == 8 ? 128u : 72u));
+#else
+  CHECK(std::is_same_v<detail::BVHWideNode, detail::BVHFloatWideNode>);
+  CHECK(sizeof(detail::BVHWideNode) == 32u * W);
+#endif
+#if defined(PRISM_BVH_WIDTH)
+  CHECK(W == PRISM_BVH_WIDTH);
+#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
+  CHECK(W == 16);
+#else
+  CHECK(W == 8);
+#endif
+#if defined(PRISM_BVH_ZMM_NODES)
+  CHECK(sizeof(detail::bx::V) == 64);  // one AVX-512 register per axis and side
+#endif
+}
+
 // The ordering of closest-hit traversal for three or more entered lanes
 // (detail::push_by_distance: with AVX2 branch-free, built on detail::sort8;
 // otherwise an insertion sort): for random sets of entered lanes and entry
 // distances (many of them equal, or within a few ulps), the nearest lane is
 // returned and the others are written farthest first, each with its own
 // child, count and distance. Keys compare a distance's bits with the lane in
-// the low three (four with 16-wide nodes), so lanes whose distances differ only there may swap; the
-// check allows exactly that (the insertion sort's exact order passes too).
+// the low three (four with 16-wide nodes, whose SIMD form sorts up to eight
+// entered lanes with sort8 and more by insertion), so lanes whose distances
+// differ only there may swap; the check allows exactly that (the insertion
+// sort's exact order passes too).
 // The any-hit form (push_by_distance<false>, without distances) must push
 // the same children and counts.
 TEST_CASE("closest-hit traversal orders entered lanes by distance", "[accel][bvh][slab]") {

@@ -15,10 +15,10 @@
 // and derives the children's bounds from the bins and the partition pass.
 //
 // Traversal runs on a second layout derived from the binary tree: nodes with
-// up to eight children whose boxes sit side by side (as in Embree's BVH8), so
-// one visit tests eight boxes in one SIMD pass (AVX; two with SSE2), or, with
-// AVX-512, up to sixteen in one pass, and a ray makes a fraction of the binary tree's visits and cache misses. Which binary
-// nodes a wide node gathers is chosen for the least SAH cost of the whole
+// up to sixteen children (with AVX-512; eight otherwise, as in Embree's BVH8)
+// whose boxes sit side by side, so one visit tests them all in one SIMD pass
+// (AVX-512 or AVX; SSE2 in passes of four) and a ray makes a fraction of the
+// binary tree's visits and cache misses. Which binary nodes a wide node gathers is chosen for the least SAH cost of the whole
 // layout (BVH::Collapse). Each lane's box test is exactly
 // intersect_node's, so a ray reaches the same primitives as through the
 // binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
@@ -295,7 +295,9 @@ void parallel_chunks(size_t n, int chunks, F&& fn) {
 // AVX-512 pass per visit) and 8 elsewhere (256-byte nodes, one AVX pass or
 // two SSE passes per visit; also the width of quantized nodes, which are at
 // most 8 wide). 4-wide nodes are 128 bytes, one SSE pass. 16-wide nodes
-// without AVX-512 are tested in groups of eight (AVX) or four (SSE) lanes.
+// without AVX-512 are tested four lanes at a time (SSE). The layout depends
+// on the compiler's instruction-set flags: every translation unit of a
+// program must be compiled with the same ones (or set PRISM_BVH_WIDTH).
 // docs/performance.md has the measurements behind the default (16 lanes
 // were measured on AMD Zen 5, whose vector units are 512 bits wide).
 #if defined(PRISM_BVH_WIDTH)
@@ -308,8 +310,8 @@ void parallel_chunks(size_t n, int chunks, F&& fn) {
 #endif
 inline constexpr int wide_width = PRISM_BVH_W;
 static_assert(wide_width == 4 || wide_width == 8 || wide_width == 16, "PRISM_BVH_WIDTH must be 4, 8 or 16");
-#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED
-static_assert(wide_width <= 8, "quantized BVH nodes are 4 or 8 wide (PRISM_BVH_WIDTH)");
+#if defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED && PRISM_BVH_W > 8
+#error "quantized BVH nodes are 4 or 8 wide (PRISM_BVH_WIDTH)"
 #endif
 // The box test's registers: 8 lanes of AVX for 8-wide nodes, 16 of AVX-512
 // (with the directed-FMA path) for 16-wide ones; SSE otherwise.
@@ -484,7 +486,7 @@ inline V add(V a, V b) { return _mm512_add_ps(a, b); }
 inline V mul(V a, V b) { return _mm512_mul_ps(a, b); }
 inline V vmax(V a, V b) { return _mm512_maskz_max_ps(__mmask16(0xffff), a, b); }
 inline V vmin(V a, V b) { return _mm512_maskz_min_ps(__mmask16(0xffff), a, b); }
-inline void store(Float* p, V a) { _mm512_storeu_ps(p, a); }  // (callers align to 64; 32 is enough)
+inline void store(Float* p, V a) { _mm512_storeu_ps(p, a); }  // (unaligned: tests pass 32-byte arrays)
 inline V load(const Float* p) { return _mm512_load_ps(p); }
 inline I fmsub_bits(V a, V b, V c) { return _mm512_castps_si512(_mm512_fmsub_ps(a, b, c)); }
 inline I bits(V a) { return _mm512_castps_si512(a); }
@@ -799,8 +801,9 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 // from h on.
 //
 // `inside` gets the lanes entered as a vector (see slab_lanes) when a node's
-// lanes fill one register (8-wide nodes on AVX, 4-wide on SSE); it is left
-// as it was otherwise. Whether a quantized node's unused lanes are cleared in
+// lanes fill one AVX or SSE register (8-wide nodes on AVX, 4-wide on SSE);
+// it is left as it was otherwise (16-wide nodes on AVX-512 too, whose
+// verdicts are a mask register). Whether a quantized node's unused lanes are cleared in
 // it depends on the build: see intersect_wide. Traversal reads it only under
 // PRISM_BVH_SORT_AVX2.
 #if defined(PRISM_BVH_SSE)
@@ -942,10 +945,11 @@ inline void nearer_first(const Float* t_entry, int& a, int& b) {
   b ^= x;
 }
 
-// The same ordering without AVX2: (distance, lane) keys sorted by insertion
-// (distances are >= +0, so their bit patterns order like their values; ties
-// keep lane order), then written farthest first. The vector of lanes not
-// entered is not needed here.
+// Closest-hit ordering (see the AVX2 form below) without SIMD, for builds
+// without AVX2 and for 16-wide nodes with more than eight lanes entered:
+// (distance, lane) keys sorted by insertion (distances are >= +0, so their
+// bit patterns order like their values; ties keep lane order), then written
+// farthest first. The vector of lanes not entered is not needed here.
 template <bool with_t = true>
 inline int push_by_distance_scalar(const BVHWideNode& node, unsigned mask, const Float* t_entry, uint32_t* child,
                                    uint32_t* count, Float* t) {
@@ -1972,9 +1976,10 @@ class BVH {
   class Collapse {
    public:
     // The costs of every binary node: subtrees below binary depth 8 in
-    // parallel, then the top. (m_cost, 84 bytes per binary node, is written
-    // only there: a zeroed vector in 4 KiB pages cost 3-38 ms of faults alone,
-    // slivers scene, 167k nodes, on a VM.)
+    // parallel, then the top. (m_cost, 84 bytes per binary node with 8-wide
+    // nodes and 164 with 16-wide ones, is written only there: a zeroed vector
+    // in 4 KiB pages cost 3-38 ms of faults alone, slivers scene, 167k nodes,
+    // on a VM.)
     Collapse(const std::vector<BVHNode>& nodes, int threads)
         : m_nodes(nodes), m_cost(detail::make_huge_array<Cost>(nodes.size())) {
       constexpr int cost_levels = 8;
