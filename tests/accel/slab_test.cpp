@@ -388,7 +388,7 @@ TEST_CASE("the traversal layout is the one the build selects", "[accel][bvh][sla
 #endif
 #if defined(PRISM_BVH_WIDTH)
   CHECK(W == PRISM_BVH_WIDTH);
-#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
+#elif defined(PRISM_BVH_ZMM) && !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
   CHECK(W == 16);
 #else
   CHECK(W == 8);

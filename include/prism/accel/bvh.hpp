@@ -18,8 +18,8 @@
 // up to sixteen children (with AVX-512; eight otherwise, as in Embree's BVH8)
 // whose boxes sit side by side, so one visit tests them all in one SIMD pass
 // (AVX-512 or AVX; SSE2 in passes of four) and a ray makes a fraction of the
-// binary tree's visits and cache misses. Which binary nodes a wide node gathers is chosen for the least SAH cost of the whole
-// layout (BVH::Collapse). Each lane's box test is exactly
+// binary tree's visits and cache misses. Which binary nodes a wide node
+// gathers is chosen for the least SAH cost of the whole layout (BVH::Collapse). Each lane's box test is exactly
 // intersect_node's, so a ray reaches the same primitives as through the
 // binary tree. -DPRISM_BVH_QUANTIZED=1 stores the children's
 // boxes quantized to bytes, rounded outward (half the node size; see
@@ -300,10 +300,12 @@ void parallel_chunks(size_t n, int chunks, F&& fn) {
 // program must be compiled with the same ones (or set PRISM_BVH_WIDTH).
 // docs/performance.md has the measurements behind the default (16 lanes
 // were measured on AMD Zen 5, whose vector units are 512 bits wide).
+#if defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM)
+#define PRISM_BVH_ZMM 1  // a 16-lane box test is available
+#endif
 #if defined(PRISM_BVH_WIDTH)
 #define PRISM_BVH_W PRISM_BVH_WIDTH
-#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && \
-    !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
+#elif defined(PRISM_BVH_ZMM) && !(defined(PRISM_BVH_QUANTIZED) && PRISM_BVH_QUANTIZED)
 #define PRISM_BVH_W 16
 #else
 #define PRISM_BVH_W 8
@@ -317,7 +319,7 @@ static_assert(wide_width == 4 || wide_width == 8 || wide_width == 16, "PRISM_BVH
 // (with the directed-FMA path) for 16-wide ones; SSE otherwise.
 #if defined(PRISM_BVH_AVX) && PRISM_BVH_W == 8
 #define PRISM_BVH_AVX_NODES 1
-#elif defined(PRISM_BVH_FMA_SLABS) && defined(PRISM_AVX512_ZMM) && PRISM_BVH_W == 16
+#elif defined(PRISM_BVH_ZMM) && PRISM_BVH_W == 16
 #define PRISM_BVH_ZMM_NODES 1
 #endif
 struct alignas(64) BVHFloatWideNode {
@@ -803,9 +805,9 @@ inline bool slab_lane(const Float* pn, const Float* pf, const WideRayPrecomp& r,
 // `inside` gets the lanes entered as a vector (see slab_lanes) when a node's
 // lanes fill one AVX or SSE register (8-wide nodes on AVX, 4-wide on SSE);
 // it is left as it was otherwise (16-wide nodes on AVX-512 too, whose
-// verdicts are a mask register). Whether a quantized node's unused lanes are cleared in
-// it depends on the build: see intersect_wide. Traversal reads it only under
-// PRISM_BVH_SORT_AVX2.
+// verdicts are a mask register). Whether a quantized node's unused lanes
+// are cleared in it depends on the build: see intersect_wide. Traversal
+// reads it only under PRISM_BVH_SORT_AVX2.
 #if defined(PRISM_BVH_SSE)
 using LaneMaskV = bx::V;
 #else
@@ -920,9 +922,9 @@ inline void prefetch(const BVHWideNode* n) {
 }
 
 // Asks for the cache line of a node's child[0]: with 8 lanes the line of all
-// its links (child, count), the last of a float node's four lines (with 16
-// lanes the children's line; asking for the counts' too measured nothing) and the
-// second of a quantized node's two.
+// its links (child, count), the last of a float node's four lines and the
+// second of a quantized node's two; with 16 lanes the children's line
+// (asking for the counts' too measured nothing).
 inline void prefetch_links(const BVHWideNode* n) {
   const char* line = reinterpret_cast<const char*>(n->child);
 #if defined(PRISM_BVH_SSE)
@@ -989,6 +991,13 @@ inline __m256i sort8(__m256i x) {
   x = layer(x, _mm256_setr_epi32(0, 2, 1, 4, 3, 6, 5, 7), integral_constant<int, 0x54>{});
   return x;
 }
+// The smallest of eight int32 keys, in three steps (the sort takes six).
+inline int min_key8(__m256i k) {
+  __m256i m = _mm256_min_epi32(k, _mm256_permute2x128_si256(k, k, 0x01));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
+  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
+  return _mm256_cvtsi256_si32(m);
+}
 #endif
 
 #if defined(PRISM_BVH_AVX_NODES) && defined(__AVX2__)
@@ -1027,10 +1036,7 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, __m256 insid
   // The nearest lane, the sort's first, by a horizontal minimum of the keys
   // (unique: the lane is in them): three steps instead of the sort's six, so
   // that traversal can go on to the nearest child before the sort is done.
-  __m256i m = _mm256_min_epi32(key, _mm256_permute2x128_si256(key, key, 0x01));
-  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
-  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
-  return _mm256_cvtsi256_si32(m) & 7;
+  return min_key8(key) & 7;
 }
 
 // The lanes of a node that hold inner nodes (bit l for lane l).
@@ -1067,11 +1073,7 @@ inline int push_by_distance(const BVHWideNode& node, unsigned mask, LaneMaskV /*
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(child), gather(node.child));
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), gather(node.count));
   if constexpr (with_t) _mm256_storeu_si256(reinterpret_cast<__m256i*>(t), gather(t_entry));
-  // The nearest lane: the horizontal minimum of the packed keys.
-  __m256i m = _mm256_min_epi32(packed, _mm256_permute2x128_si256(packed, packed, 0x01));
-  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0x4E));
-  m = _mm256_min_epi32(m, _mm256_shuffle_epi32(m, 0xB1));
-  return _mm256_cvtsi256_si32(m) & 15;
+  return min_key8(packed) & 15;  // the nearest lane
 }
 // The lanes of a node that hold inner nodes (bit l for lane l).
 inline unsigned inner_lanes(const BVHWideNode& node) {
