@@ -103,6 +103,9 @@ template <class S>
 struct prism::bxdf_traits<example::OrenNayarBxDF<S>> {
   static constexpr std::string_view name = "oren_nayar";
   static constexpr BxDFFlags flags = BxDFFlags::diffuse_reflection;
+  // The optional hooks it provides (bxdfs/hooks.hpp): a declared hook that is
+  // missing or misspelt below is a compile error naming it.
+  static constexpr BxDFHook hooks = BxDFHook::validate;
   using material_type = example::OrenNayarMaterial;
 
   // The reflectance is uplifted as a bounded spectrum in spectral mode.

@@ -264,13 +264,21 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   if (distributed())
     workers = std::to_string(g_ranks) + " ranks x " + std::to_string(result.threads) + " threads (" + job.split +
               " split)";
+  // Camera samples and, beside them, the caustic pass's light paths (one per
+  // camera sample when it runs), so that samples/s compares with renderers
+  // that have no such pass.
+  char light_paths[96] = "";
+  if (st.light_paths > 0)
+    std::snprintf(light_paths, sizeof light_paths, " + %.3f M light paths/s (caustic pass)",
+                  double(st.light_paths) / st.seconds * 1e-6);
   std::printf(
-      "prism-render: %dx%d, %d spp%s, %s, %s, %s sampler, %s filter, %s, %s: %.2f s, %.3f M samples/s, %.3f M "
+      "prism-render: %dx%d, %d spp%s, %s, %s, %s sampler, %s filter, %s, %s: %.2f s, %.3f M samples/s%s, %.3f M "
       "rays/s, %llu dropped%s%s\n",
       job.width, job.height, job.target_error > 0 ? job.max_spp : job.spp,
       job.target_error > 0 ? " at most (adaptive)" : "", model, job.integrator.c_str(), job.sampler.c_str(), job.filter.c_str(),
       lights.c_str(), workers.c_str(), st.seconds,
-      double(st.samples) / st.seconds * 1e-6, double(st.rays) / st.seconds * 1e-6, (unsigned long long)st.dropped,
+      double(st.samples) / st.seconds * 1e-6, light_paths, double(st.rays) / st.seconds * 1e-6,
+      (unsigned long long)st.dropped,
       st.cancelled ? " (cancelled)" : "", shutter_note.c_str());
   if (job.target_error > 0)
     std::printf(
@@ -315,7 +323,8 @@ int run_default(const Job& job, const char* model, const prism::CornellBoxOption
 
 // A glTF scene: its camera (--camera N, else the first, else one framing the
 // scene's bounds), its lights, --env, and a white environment when it has no
-// punctual light.
+// light of any kind (no punctual light, no emissive surface) and no --env
+// (--env none: never).
 template <class S, class Set>
 int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
   using namespace prism;
@@ -323,12 +332,16 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
     return fail("--camera " + std::to_string(job.camera) + ": the scene has " + std::to_string(g.cameras.size()) +
                 " cameras");
   try {
-    if (!job.env.empty()) {
+    if (job.env == "none") {
+      // No environment, whatever the scene has.
+    } else if (!job.env.empty()) {
       g.scene.add_light(ImageInfiniteLight<S>(read_environment(job.env), job.env_scale));
-    } else if (g.punctual_lights == 0) {
-      // Emissive surfaces rarely light a whole model: they do not count.
+    } else if (!g.has_lights()) {
+      // A scene lit by its own emitters keeps exactly their light.
       if (!job.quiet && g_rank == 0)
-        std::fprintf(stderr, "prism-render: the scene has no punctual light: adding a white environment\n");
+        std::fprintf(stderr,
+                     "prism-render: the scene has no light (no punctual light, no emissive surface): adding a "
+                     "white environment (--env none: none)\n");
       g.scene.add_light(UniformInfiniteLight<S>(RGB(1)));
     }
     g.scene.set_light_selection(light_selection(job.light_sampler));
@@ -429,7 +442,9 @@ int run(int argc, char** argv) {
                  "Motion blur: the shutter stays open this long after --time; glTF nodes that animations move "
                  "become moving instances, and the default scene's tall box moves (0: no blur)")
       ->check(CLI::Range(0.0, 1e30));
-  app.add_option("--env", job.env, "Equirectangular environment map (.hdr, .exr or .pfm) lighting a glTF scene");
+  app.add_option("--env", job.env,
+                 "Equirectangular environment map (.hdr, .exr or .pfm) lighting a glTF scene; 'none': no "
+                 "environment (default: a white one only for a scene without any light)");
   app.add_option("--env-scale", job.env_scale, "Multiplier of the environment map")->check(CLI::Range(0.f, 1e30f));
   app.add_option("--width", job.width, "Image width in pixels")->check(CLI::Range(1, 65536));
   app.add_option("--height", job.height, "Image height in pixels")->check(CLI::Range(1, 65536));
@@ -552,7 +567,7 @@ int run(int argc, char** argv) {
     return spectral ? run_gltf_file<Spectral, prism::metal_rough_bxdf_set>(job, "spectral", scene_path)
                     : run_gltf_file<RGB, prism::metal_rough_bxdf_set>(job, "rgb", scene_path);
   }
-  if (!job.env.empty()) return fail("--env needs a glTF scene");
+  if (!job.env.empty() && job.env != "none") return fail("--env needs a glTF scene");
   if (job.default_scene != "cornell" && job.default_scene != "cornell-diffuse")
     return fail("--default-scene " + job.default_scene + ": unknown (use cornell or cornell-diffuse)");
   // The instantiation: the smallest that renders the scene exactly

@@ -22,6 +22,53 @@ TEST_CASE("perspective camera looks at its target with the right field of view",
   CHECK(std::atan2(double(right.d.x), double(-right.d.z)) == Approx(std::atan(std::tan(fov / 2) * 2)).epsilon(1e-5));
 }
 
+TEST_CASE("a left-handed look-at gives pbrt's camera, the mirror image of the right-handed one", "[cameras]") {
+  // pbrt-v4's LookAt from the origin towards +z with +y up is the identity
+  // camera-to-world (right = up x dir = +x): camera +x is world +x.
+  Transform left = look_at_camera_to_world({0, 0, 0}, {0, 0, 1}, {0, 1, 0}, Handedness::left);
+  Vector3f x = left(Vector3f{1, 0, 0}), y = left(Vector3f{0, 1, 0}), z = left(Vector3f{0, 0, 1});
+  CHECK(x.x == Approx(1));
+  CHECK(y.y == Approx(1));
+  CHECK(z.z == Approx(1));
+  // The right-handed convention puts camera +x at dir x up = -x here.
+  Transform right = look_at_camera_to_world({0, 0, 0}, {0, 0, 1}, {0, 1, 0});
+  CHECK(right(Vector3f{1, 0, 0}).x == Approx(-1));
+  CHECK(right(Vector3f{0, 1, 0}).y == Approx(1));
+  // Off-axis: both keep the eye, the view direction and up; only x flips.
+  Point3f eye{1, 2, 3}, target{-2, 0.5f, -4};
+  Transform l2 = look_at_camera_to_world(eye, target, {0, 1, 0}, Handedness::left);
+  Transform r2 = look_at_camera_to_world(eye, target, {0, 1, 0});
+  Vector3f lx = l2(Vector3f{1, 0, 0}), rx = r2(Vector3f{1, 0, 0});
+  for (int i = 0; i < 3; ++i) {
+    CHECK(lx[i] == Approx(-rx[i]).margin(1e-6));
+    CHECK(l2(Vector3f{0, 0, 1})[i] == Approx(r2(Vector3f{0, 0, 1})[i]).margin(1e-6));
+    CHECK(l2(Vector3f{0, 1, 0})[i] == Approx(r2(Vector3f{0, 1, 0})[i]).margin(1e-6));
+    CHECK(l2(Point3f{0, 0, 0})[i] == Approx(eye[i]));
+  }
+}
+
+TEST_CASE("the field of view spans the axis it is given for", "[cameras]") {
+  const Float fov = radians(50);
+  const Transform t = look_at_camera_to_world({0, 0, 0}, {0, 0, -1}, {0, 1, 0});
+  // Angle from the axis of the ray through the film point (x, y).
+  auto angle = [&](const PerspectiveCamera& c, Float x, Float y) {
+    Ray r = c.generate_ray({{x, y}, {0.5f, 0.5f}, 0});
+    return std::acos(double(-r.d.z));
+  };
+  for (auto [w, h] : {std::pair{200, 100}, std::pair{100, 200}}) {
+    PerspectiveCamera horizontal(t, fov, FovAxis::horizontal, w, h);
+    PerspectiveCamera vertical(t, fov, FovAxis::vertical, w, h);
+    PerspectiveCamera shorter(t, fov, FovAxis::shorter, w, h);
+    CHECK(angle(horizontal, Float(w), h / 2.f) == Approx(fov / 2).epsilon(1e-5));
+    CHECK(angle(vertical, w / 2.f, 0) == Approx(fov / 2).epsilon(1e-5));
+    // pbrt-v4: the shorter extent spans the field of view.
+    if (w < h)
+      CHECK(angle(shorter, Float(w), h / 2.f) == Approx(fov / 2).epsilon(1e-5));
+    else
+      CHECK(angle(shorter, w / 2.f, 0) == Approx(fov / 2).epsilon(1e-5));
+  }
+}
+
 TEST_CASE("thin lens rays through one film point meet at the focus distance", "[cameras][lens]") {
   const Float focus = 5;
   PerspectiveCamera cam(look_at_camera_to_world({0, 0, 0}, {0, 0, -1}, {0, 1, 0}), radians(40), 64, 64, 0.2f, focus);

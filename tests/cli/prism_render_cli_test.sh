@@ -151,5 +151,53 @@ if [ "$rc" != 0 ] || ! cmp -s "$tmp/sbvh.pfm" "$tmp/still_a.pfm"; then
   echo "FAIL: --spatial-splits did not render the image without them ($rc): $out"; fails=$((fails+1))
 else echo "ok: --spatial-splits renders the same image"; fi
 
+# The fallback environment: only for a scene with no light of any kind. A
+# scene lit by its own emitters (an open emissive triangle, a closed emissive
+# tetrahedron) gets none: no message, no environment among its lights, and
+# the open scene's background is black. --env none turns the fallback off.
+emis="$tmp/tri_emissive.gltf"
+sed 's/"meshes":\[{"primitives":\[{"attributes":{"POSITION":0}}\]}\]/"meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],"materials":[{"emissiveFactor":[1,1,1]}]/' "$tri" > "$emis"
+tet="$tmp/tet_emissive.gltf"
+cat > "$tet" <<'JSON'
+{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+ "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1,"material":0}]}],
+ "materials":[{"emissiveFactor":[1,0.5,0.25]}],
+ "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},
+              {"bufferView":1,"componentType":5123,"count":12,"type":"SCALAR"}],
+ "bufferViews":[{"buffer":0,"byteLength":48},{"buffer":0,"byteOffset":48,"byteLength":24}],
+ "buffers":[{"byteLength":72,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAACAAEAAAABAAMAAAADAAIAAQACAAMA"}]}
+JSON
+pfm_corners() {  # prints the largest value of the four corner pixels
+  python3 - "$1" <<'PY'
+import struct, sys
+d = open(sys.argv[1], 'rb').read()
+parts = d.split(b'\n', 3)
+w, h = map(int, parts[1].split()); px = parts[3]
+fmt = '<' if float(parts[2]) < 0 else '>'
+def at(x, y): return struct.unpack_from(fmt + '3f', px, 12 * (y * w + x))
+print(max(max(at(x, y)) for x in (0, w - 1) for y in (0, h - 1)))
+PY
+}
+check_no_env() {  # name, file, extra arguments
+  local name="$1" file="$2"; shift 2
+  local err out rc
+  err=$("$bin" "$file" --width 16 --height 16 --spp 2 --out "$tmp/$name.pfm" "$@" 2>&1 >"$tmp/$name.out"); rc=$?
+  out=$(cat "$tmp/$name.out")
+  if [ "$rc" != 0 ] || printf '%s' "$err" | grep -q 'white environment' || printf '%s' "$out" | grep -q 'environment}' ||
+     printf '%s' "$out" | grep -q 'environment,'; then
+    echo "FAIL: $name: an environment was added ($rc): $err $out"; fails=$((fails+1))
+  else echo "ok: $name: no environment"; fi
+}
+check_no_env open_emissive "$emis"
+check_no_env closed_emissive "$tet"
+check_no_env env_none "$tri" --env none
+c=$(pfm_corners "$tmp/open_emissive.pfm")
+[ "$c" = "0.0" ] || { echo "FAIL: the open emissive scene's background is $c, not black"; fails=$((fails+1)); }
+err=$("$bin" "$tri" --width 8 --height 8 --spp 1 --out "$tmp/tri_env.pfm" 2>&1 >/dev/null)
+printf '%s' "$err" | grep -q 'adding a white environment' ||
+  { echo "FAIL: a scene without any light got no fallback environment: $err"; fails=$((fails+1)); }
+c=$(pfm_corners "$tmp/tri_env.pfm")
+[ "$c" != "0.0" ] || { echo "FAIL: the fallback environment left the background black"; fails=$((fails+1)); }
+
 if [ "$fails" != 0 ]; then echo "$fails failures"; exit 1; fi
 echo "all prism-render CLI checks passed"

@@ -112,3 +112,31 @@ TEST_CASE("rendering stops when cancelled and reports progress", "[render]") {
 }
 
 }  // namespace render_test
+
+TEST_CASE("an area light's emitting side can be given explicitly, whatever the winding", "[render][lights]") {
+  using namespace prism;
+  // A quad at y = 0 wound to face +y; a receiver point above it and one below.
+  for (EmittingSide side : {EmittingSide::front, EmittingSide::back, EmittingSide::both}) {
+    Scene<RGB> scene;
+    uint32_t m = scene.add_material(DiffuseMaterial{RGB(0.5f)});
+    TriangleMesh quad;
+    append_quad(quad, {-1, 0, -1}, {0, 0, 2}, {2, 0, 0});  // (0,0,2) x (2,0,0) = +y
+    scene.add_mesh_instance(std::move(quad), m, AreaEmission(RGB(1), 1, side));
+    scene.build();
+    REQUIRE(scene.lights().size() == 2);
+    for (Float y : {Float(1), Float(-1)}) {
+      LightSampleContext ctx;
+      ctx.p = {0.1f, y, 0.2f};
+      auto ls = std::visit([&](const auto& l) { return l.sample_li(ctx, {0.3f, 0.6f}, RGBWavelengths{}); },
+                           scene.lights()[0]);
+      bool lit = ls && !ls->L.is_black();
+      bool want = side == EmittingSide::both || (side == EmittingSide::front) == (y > 0);
+      INFO("side " << int(side) << " receiver y " << y);
+      CHECK(lit == want);
+    }
+  }
+  Scene<RGB> spheres;
+  uint32_t m = spheres.add_material(DiffuseMaterial{RGB(0.5f)});
+  spheres.add_sphere(Sphere{{0, 0, 0}, 1}, m, AreaEmission(RGB(1), 1, EmittingSide::back));
+  CHECK_THROWS_WITH(spheres.build(), Catch::Contains("sphere light") && Catch::Contains("EmittingSide::back"));
+}

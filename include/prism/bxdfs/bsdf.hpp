@@ -1,17 +1,23 @@
 // prism/bxdfs/bsdf.hpp — a BSDF: a shading frame plus one BxDF from a closed,
 // statically dispatched set (std::variant; no virtual calls). bxdf_set lists
 // the BxDF types a renderer is instantiated with; users extend it with their
-// own types: bxdf_set<DiffuseBxDF<RGB>>::with<MyBxDF<RGB>>.
+// own types: bxdf_set<DiffuseBxDF<RGB>>::with<MyBxDF<RGB>>. Every member models
+// the BxDF concept (bxdfs/hooks.hpp), and its traits' hooks are checked when
+// the set is named.
 #pragma once
 #include <tuple>
 #include <variant>
 #include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/hooks.hpp"
 #include "prism/geometry/interaction.hpp"
 
 namespace prism {
 
-template <class... Bs>
+template <BxDF... Bs>
 struct bxdf_set {
+  // Instantiates each member's bxdf_hooks, whose static_asserts name a
+  // declared hook that is missing and a hook member that is not declared.
+  static_assert(((sizeof(bxdf_hooks<Bs>) > 0) && ...));
   template <class... More> using with = bxdf_set<Bs..., More...>;
   using bxdf_variant = std::variant<Bs...>;
   using material_variant = std::variant<typename bxdf_traits<Bs>::material_type...>;
@@ -31,9 +37,8 @@ class BSDF {
   // selects the set's I-th BxDF, built by bxdf_traits<BxDF_I>::make. lambda is
   // passed on as a non-const lvalue when the caller's is one: a dispersive BxDF
   // terminates the secondary wavelengths through it.
-  // The shading frame is si.shading_frame(), unless the BxDF's traits
-  // provide `static Frame shading_frame(const Material&, const
-  // SurfaceInteraction&)` (normal mapping).
+  // The shading frame is bxdf_hooks<B>::shading_frame (normal mapping where
+  // the traits declare it, else si.shading_frame()).
   template <class W>
   static BSDF from_material(const typename Set::material_variant& m, const SurfaceInteraction& si, W&& lambda) {
     BSDF out;
@@ -77,12 +82,9 @@ class BSDF {
   }
   template <size_t I, class M, class W>
   static void build_one(BSDF& out, const M& mat, const SurfaceInteraction& si, W& lambda) {
-    using T = bxdf_traits<typename Set::template bxdf<I>>;
-    if constexpr (requires { T::shading_frame(mat, si); })
-      out.m_frame = T::shading_frame(mat, si);
-    else
-      out.m_frame = si.shading_frame();
-    out.m_bxdf.template emplace<I>(T::make(mat, si, lambda));
+    using B = typename Set::template bxdf<I>;
+    out.m_frame = bxdf_hooks<B>::shading_frame(mat, si);
+    out.m_bxdf.template emplace<I>(bxdf_traits<B>::make(mat, si, lambda));
   }
 
   Frame m_frame;

@@ -76,10 +76,9 @@ concept BxDFLike = requires(const B& b, Vector3f w, Float uc, Point2f u, Transpo
 //   using material_type = MyParams;               // unique per BxDF in a set
 //   template <class W> static MyBxDF make(const MyParams&, const SurfaceInteraction&, const W& lambda);
 // and render with a set that includes it (bxdf_set<...>::with<MyBxDF>).
-// Optional members:
-//   static void validate(const MyParams&, std::string_view where);  // throw prism::Error on bad input
-//   static bool needs_spectral(const MyParams&);  // true if RGB cannot render it exactly
-//                                                 // (dispersion, measured spectra)
+// Optional hooks (validate, needs_spectral, has_specular, opacity, volume,
+// shading_frame, ...) are declared in `static constexpr BxDFHook hooks`:
+// bxdfs/hooks.hpp lists them with their signatures and defaults.
 // A BxDF whose make() takes `W& lambda` (non-const) may call
 // lambda.terminate_secondary() in spectral mode (dispersion).
 template <class B> struct bxdf_traits;

@@ -24,6 +24,7 @@
 #include <string_view>
 #include <variant>
 #include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/hooks.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/ms_compensation.hpp"
 #include "prism/sampling/warps.hpp"
@@ -299,6 +300,7 @@ template <class S>
 struct bxdf_traits<ConductorBxDF<S>> {
   static constexpr std::string_view name = "conductor";
   static constexpr BxDFFlags flags = BxDFFlags::specular_reflection | BxDFFlags::glossy_reflection;
+  static constexpr BxDFHook hooks = BxDFHook::validate | BxDFHook::needs_spectral | BxDFHook::has_specular;
   using material_type = ConductorMaterial;
 
   // eta + i k at the path's wavelengths (or per RGB channel). Never

@@ -47,6 +47,7 @@
 #include <utility>
 #include <vector>
 #include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/hooks.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/volume.hpp"
 #include "prism/geometry/interaction.hpp"
@@ -561,6 +562,8 @@ struct bxdf_traits<DielectricBxDF<S>> {
   // The lobes it may have: specular when smooth, glossy when rough.
   static constexpr BxDFFlags flags = BxDFFlags::specular_reflection | BxDFFlags::specular_transmission |
                                      BxDFFlags::glossy_reflection | BxDFFlags::glossy_transmission;
+  static constexpr BxDFHook hooks = BxDFHook::validate | BxDFHook::needs_spectral | BxDFHook::dispersive |
+                                    BxDFHook::has_specular | BxDFHook::volume;
   using material_type = DielectricMaterial;
   // W is the path's wavelengths type, const or not. Spectral and dispersive:
   // terminates the secondary wavelengths (non-const W) and uses eta at the
@@ -583,6 +586,7 @@ struct bxdf_traits<DielectricBxDF<S>> {
   }
   // Dispersion cannot be rendered in RGB (one eta for all three channels).
   static bool needs_spectral(const DielectricMaterial& m) { return m.ior.is_dispersive(); }
+  static bool dispersive(const DielectricMaterial& m) { return m.ior.is_dispersive(); }
   static bool has_specular(const DielectricMaterial& m) { return TrowbridgeReitz(m.roughness).effectively_smooth(); }
   // The absorbing interior, if any (the integrators attenuate inside).
   static const VolumeAbsorption* volume(const DielectricMaterial& m) { return m.volume.active() ? &m.volume : nullptr; }
@@ -664,6 +668,7 @@ template <class S>
 struct bxdf_traits<ThinDielectricBxDF<S>> {
   static constexpr std::string_view name = "thin_dielectric";
   static constexpr BxDFFlags flags = BxDFFlags::specular_reflection | BxDFFlags::specular_transmission;
+  static constexpr BxDFHook hooks = BxDFHook::validate | BxDFHook::needs_spectral | BxDFHook::dispersive;
   using material_type = ThinDielectricMaterial;
   // Spectral: eta at every wavelength of the path (none is terminated); RGB:
   // eta at the d line for the three channels.
@@ -688,6 +693,7 @@ struct bxdf_traits<ThinDielectricBxDF<S>> {
   // A dispersive slab's reflectance varies with the wavelength, which RGB
   // (eta_d for all channels) does not reproduce exactly.
   static bool needs_spectral(const ThinDielectricMaterial& m) { return m.ior.is_dispersive(); }
+  static bool dispersive(const ThinDielectricMaterial& m) { return m.ior.is_dispersive(); }
 };
 
 }  // namespace prism

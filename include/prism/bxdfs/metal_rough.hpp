@@ -72,6 +72,7 @@
 #include <string>
 #include <string_view>
 #include "prism/bxdfs/bxdf.hpp"
+#include "prism/bxdfs/hooks.hpp"
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/ms_compensation.hpp"
@@ -652,6 +653,9 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   static constexpr BxDFFlags flags = BxDFFlags::specular_reflection | BxDFFlags::glossy_reflection |
                                      BxDFFlags::diffuse_reflection | BxDFFlags::specular_transmission |
                                      BxDFFlags::glossy_transmission;
+  static constexpr BxDFHook hooks = BxDFHook::validate | BxDFHook::needs_spectral | BxDFHook::dispersive |
+                                    BxDFHook::textured | BxDFHook::has_specular | BxDFHook::may_be_transparent |
+                                    BxDFHook::opacity | BxDFHook::volume | BxDFHook::shading_frame;
   using material_type = MetalRoughMaterial;
 
   // Clamps (silently: validate warned when the scene was built), uplifts the
@@ -730,6 +734,10 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   }
   // Dispersion (a refracting volume with dispersion > 0) cannot be rendered in RGB.
   static bool needs_spectral(const MetalRoughMaterial& m) { return m.is_volume() && m.volume_ior().is_dispersive() && m.ior > 1; }
+  // A refracting volume whose ior varies with the wavelength (KHR_materials_dispersion).
+  static bool dispersive(const MetalRoughMaterial& m) { return m.is_volume() && m.volume_ior().is_dispersive(); }
+  // Texture maps read at every hit.
+  static bool textured(const MetalRoughMaterial& m) { return m.textures != nullptr; }
   // The absorbing interior of a refracting volume, if it absorbs.
   static const VolumeAbsorption* volume(const MetalRoughMaterial& m) {
     return m.is_volume() && m.attenuation.active() ? &m.attenuation : nullptr;

@@ -2,6 +2,7 @@
 // lens. Camera space: +x right, +y up, +z forward. Raster space: x right, y
 // down, in pixels. fov_y is the vertical field of view (as glTF's yfov).
 #pragma once
+#include <concepts>
 #include <optional>
 #include <string>
 #include "prism/error.hpp"
@@ -47,9 +48,37 @@ struct Shutter {
   }
 };
 
+// What render() and the light-tracing pass ask of a camera: a ray for a
+// camera sample, the shutter interval, and where a world point appears on
+// the film (nullopt when it does not). PerspectiveCamera and
+// OrthographicCamera model it.
+template <class C>
+concept CameraLike = requires(const C& c, const CameraSample& s, const Point3f& p, Point2f u) {
+  { c.generate_ray(s) } -> std::same_as<Ray>;
+  { c.shutter() } -> std::convertible_to<Shutter>;
+  { c.connect(p, u) } -> std::same_as<std::optional<CameraConnection>>;
+};
+
+// Which extent of the image a field of view spans: the vertical one (glTF's
+// yfov, prism's default), the horizontal one, or the shorter of the two
+// (pbrt-v4's "fov").
+enum class FovAxis { vertical, horizontal, shorter };
+
 class PerspectiveCamera {
  public:
   PerspectiveCamera() = default;
+  // The vertical field of view that equals `fov` (radians) along `axis` for
+  // an image of width x height pixels.
+  static Float vertical_fov(Float fov, FovAxis axis, int width, int height) {
+    const bool horizontal = axis == FovAxis::horizontal || (axis == FovAxis::shorter && width < height);
+    if (!horizontal) return fov;
+    return 2 * std::atan(std::tan(fov / 2) * Float(height) / Float(width));
+  }
+  // A camera whose field of view `fov` spans `axis` (see FovAxis).
+  PerspectiveCamera(const Transform& camera_to_world, Float fov, FovAxis axis, int width, int height,
+                    Float lens_radius = 0, Float focal_distance = 1)
+      : PerspectiveCamera(camera_to_world, vertical_fov(fov, axis, width, height), width, height, lens_radius,
+                          focal_distance) {}
   PerspectiveCamera(const Transform& camera_to_world, Float fov_y_radians, int width, int height,
                     Float lens_radius = 0, Float focal_distance = 1)
       : m_to_world(camera_to_world), m_width(width), m_height(height), m_lens_radius(lens_radius),

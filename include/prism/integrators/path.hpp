@@ -27,10 +27,20 @@
 // sampling hits after a non-specular vertex counts only when next-event
 // estimation could not have sampled that point (light pmf x pdf_li = 0), so
 // every path is still counted exactly once and the estimator stays unbiased.
+//
+// Both model IntegratorLike (integrators/integrator.hpp) for any SceneLike
+// scene; PathIntegrator declares the caustic pass as a capability.
 #pragma once
+#include <algorithm>
 #include <cstdint>
+#include <optional>
+#include <type_traits>
+#include <variant>
+#include "prism/bxdfs/bxdf.hpp"
 #include "prism/bxdfs/volume.hpp"
+#include "prism/cameras/perspective.hpp"
 #include "prism/film/aov.hpp"
+#include "prism/integrators/integrator.hpp"
 #include "prism/lights/light.hpp"
 #include "prism/sampling/warps.hpp"
 
@@ -43,11 +53,37 @@ struct PathOptions {
   bool mis = true;  // false: NEE without MIS weights (see the file comment)
 };
 
-struct RayCounter {
-  uint64_t rays = 0;
-};
-
 namespace detail {
+
+// What every path loop does at a vertex, written once.
+//
+// The weight of emission that BSDF sampling reached after a non-specular
+// vertex, where next-event estimation could have sampled the same point
+// with density p_light (light pmf x solid-angle pdf): the power heuristic;
+// without MIS, all of it where a light sample cannot reach the point
+// (p_light = 0) and none elsewhere (nullopt), so that every path counts once.
+inline std::optional<Float> emission_weight(Float bsdf_pdf, Float p_light, bool mis) {
+  if (mis) return power_heuristic(bsdf_pdf, p_light);
+  if (!(p_light > 0)) return Float(1);
+  return std::nullopt;
+}
+// The throughput after scattering into bs.wi: beta *= f |cos theta_i| / pdf.
+template <class S>
+void scatter(S& beta, const BSDFSample<S>& bs, const Normal3f& ns) {
+  beta *= bs.f * (abs_dot(bs.wi, ns) / bs.pdf);
+}
+// Russian roulette on the path's continuation weight rr (the throughput's
+// largest component, refraction's radiance scale removed for camera paths):
+// below 1 the path survives with probability rr (u >= 1 - rr) and beta is
+// divided by it. Returns false when the path ends.
+template <class S>
+bool russian_roulette(S& beta, Float rr, Float u) {
+  if (!(rr < 1)) return true;
+  Float q = std::max(Float(0), 1 - rr);
+  if (u < q) return false;
+  beta = beta / (1 - q);
+  return true;
+}
 
 // Radiance emitted by the light a path hit at si towards wo.
 template <class Scene, class W>
@@ -56,10 +92,8 @@ typename Scene::spectrum_type emitted(const Scene& scene, const SurfaceInteracti
   if (si.area_light < 0) return S{};
   return std::visit(
       [&](const auto& l) -> S {
-        if constexpr (requires { l.L(si, lambda); })
+        if constexpr (SurfaceEmitter<std::decay_t<decltype(l)>, S>)
           return l.L(si, lambda);
-        else if constexpr (requires { l.L(si.n, si.wo, lambda); })
-          return l.L(si.n, si.wo, lambda);
         else
           return S{};
       },
@@ -74,17 +108,14 @@ typename Scene::spectrum_type escaped(const Scene& scene, const Ray& ray, const 
   for (uint32_t idx : scene.infinite_lights()) {
     std::visit(
         [&](const auto& light) {
-          if constexpr (requires { light.Le(ray, lambda); }) {
+          if constexpr (EscapeEmitter<std::decay_t<decltype(light)>, S>) {
             S Le = light.Le(ray, lambda);
             if (Le.is_black()) return;
             if (!weigh_by_mis) {
               L += Le;
             } else {
               Float p_l = scene.light_pmf(prev, idx) * light.pdf_li(prev, ray.d, SurfaceInteraction{});
-              if (mis)
-                L += Le * power_heuristic(bsdf_pdf, p_l);
-              else if (!(p_l > 0))
-                L += Le;  // NEE without MIS: only what a light sample cannot reach
+              if (auto w = emission_weight(bsdf_pdf, p_l, mis)) L += Le * *w;
             }
           }
         },
@@ -105,16 +136,12 @@ std::optional<BSDFSample<S>> continue_path(const BSDFT& bsdf, const SurfaceInter
   Point2f u = sampler.get_2d();
   auto bs = bsdf.sample(si.wo, uc, u);
   if (!bs) return std::nullopt;
-  beta *= bs->f * (abs_dot(bs->wi, si.ns) / bs->pdf);
+  scatter(beta, *bs, si.ns);
   if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
   ray = si.spawn_ray(bs->wi);
-  Float rr = beta.max_component() * eta_scale;
   Float u_rr = sampler.get_1d();
-  if (depth >= opt.rr_min_depth && rr < 1) {
-    Float q = std::max(Float(0), 1 - rr);
-    if (u_rr < q) return std::nullopt;
-    beta = beta / (1 - q);
-  }
+  if (depth >= opt.rr_min_depth && !russian_roulette(beta, beta.max_component() * eta_scale, u_rr))
+    return std::nullopt;
   if (!beta.is_finite() || beta.is_black()) return std::nullopt;
   return bs;
 }
@@ -142,6 +169,7 @@ void attenuate(S& beta, const std::optional<S>& sigma_a, const Ray& ray, const S
 
 class PathIntegrator {
  public:
+  static constexpr IntegratorCapability capabilities = IntegratorCapability::caustic_pass;
   PathIntegrator() = default;
   explicit PathIntegrator(PathOptions opt) : m_opt(opt) {}
   const PathOptions& options() const { return m_opt; }
@@ -177,10 +205,7 @@ class PathIntegrator {
           const auto& light = scene.lights()[size_t(si->area_light)];
           Float p_l = scene.light_pmf(prev, uint32_t(si->area_light)) *
                       std::visit([&](const auto& l) { return Float(l.pdf_li(prev, ray.d, *si)); }, light);
-          if (m_opt.mis)
-            L += beta * Le * power_heuristic(bsdf_pdf, p_l);
-          else if (!(p_l > 0))
-            L += beta * Le;  // NEE without MIS: only what a light sample cannot reach
+          if (auto w = detail::emission_weight(bsdf_pdf, p_l, m_opt.mis)) L += beta * Le * *w;
         }
       }
       if (depth == m_opt.max_depth) break;
@@ -213,7 +238,7 @@ class PathIntegrator {
   // vertices; at each later vertex with a non-specular part, a connection to
   // the camera, passed to splat(raster position, value in the film's encoding).
   // Uses TransportMode::importance along the path (the BxDFs' adjoint).
-  template <class Scene, class Camera, class Sampler, class Splat>
+  template <class Scene, CameraLike Camera, class Sampler, class Splat>
   void trace_caustic_path(const Scene& scene, const Camera& camera, Sampler& sampler, RayCounter& counter,
                           Splat&& splat) const {
     using S = typename Scene::spectrum_type;
@@ -223,15 +248,12 @@ class PathIntegrator {
     Point2f u_pos = sampler.get_2d(), u_dir = sampler.get_2d();
     Float u_side = sampler.get_1d();
     // The path's time, when the camera's shutter is open for an interval.
-    Float time = 0;
-    if constexpr (requires { camera.shutter(); }) {
-      const auto& sh = camera.shutter();
-      time = sh.is_open_interval() ? sh.time(sampler.get_1d()) : sh.open;
-    }
+    const Shutter sh = camera.shutter();
+    const Float time = sh.is_open_interval() ? sh.time(sampler.get_1d()) : sh.open;
     if (!sl) return;
     auto le = std::visit(
         [&](const auto& l) -> std::optional<LightLeSample<S>> {
-          if constexpr (requires { l.sample_le(u_pos, u_dir, u_side, lambda); })
+          if constexpr (LightPathEmitter<std::decay_t<decltype(l)>, S>)
             return l.sample_le(u_pos, u_dir, u_side, lambda);
           else
             return std::nullopt;
@@ -272,15 +294,11 @@ class PathIntegrator {
       Point2f u = sampler.get_2d();
       auto bs = bsdf.sample(si->wo, uc, u, TransportMode::importance);
       if (!bs || !bs->is_specular()) return;
-      beta *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
+      detail::scatter(beta, *bs, si->ns);
       ray = si->spawn_ray(bs->wi);
       detail::update_medium(scene, *si, *bs, lambda, sigma_a);
-      Float rr = beta.max_component();
       Float u_rr = sampler.get_1d();
-      if (specular + 1 >= m_opt.rr_min_depth && rr < 1) {
-        if (u_rr >= rr) return;
-        beta = beta / rr;
-      }
+      if (specular + 1 >= m_opt.rr_min_depth && !detail::russian_roulette(beta, beta.max_component(), u_rr)) return;
       if (!beta.is_finite() || beta.is_black()) return;
     }
   }
@@ -383,7 +401,7 @@ AovSample first_hit_aovs(const Scene& scene, Ray ray, const W& lambda, U&& u, in
     auto bs = bsdf.sample(si->wo, uc, u2);
     if (!is_non_specular(flags) && depth < max_specular) {
       if (!bs || !(bs->pdf > 0)) return out;
-      throughput *= bs->f * (abs_dot(bs->wi, si->ns) / bs->pdf);
+      detail::scatter(throughput, *bs, si->ns);
       ray = si->spawn_ray(bs->wi);
       continue;
     }

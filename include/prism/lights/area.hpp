@@ -39,13 +39,24 @@ inline std::optional<EmittedDirection> sample_emitted_direction(Normal3f n, bool
 }
 }  // namespace detail
 
+// Which side of a triangle emits: the front (the side its winding's normal
+// points to, glTF's and prism's convention), the back, or both.
+enum class EmittingSide { front, back, both };
+
 struct AreaEmission {
   AreaEmission(RGB radiance_ = RGB(1), Float scale_ = 1, bool two_sided_ = false,
                std::shared_ptr<const ImageTexture> texture_ = nullptr)
       : radiance(radiance_), scale(scale_), two_sided(two_sided_), texture(std::move(texture_)) {}
+  // Emission from an explicit side, whatever the winding (Scene::build
+  // rejects `back` on spheres: they emit outwards or both ways).
+  AreaEmission(RGB radiance_, Float scale_, EmittingSide side, std::shared_ptr<const ImageTexture> texture_ = nullptr)
+      : AreaEmission(radiance_, scale_, side == EmittingSide::both, std::move(texture_)) {
+    back = side == EmittingSide::back;
+  }
   RGB radiance{1};
   Float scale = 1;
   bool two_sided = false;
+  bool back = false;  // one-sided emission from the back of the winding
   // Optional emissive texture (glTF emissiveTexture, sRGB): its rgb
   // multiplies radiance at the point's uv (the texture's texcoord set).
   std::shared_ptr<const ImageTexture> texture;
@@ -257,6 +268,11 @@ class SphereAreaLight {
   S L(const Normal3f& n, const Vector3f& w, const W& lambda) const {
     if (!m_emission.two_sided && dot(n, w) < 0) return S{};
     return spectrum_traits<S>::illuminant(m_emission.radiance * m_emission.scale, lambda);
+  }
+  // Radiance leaving the light at the hit si towards si.wo.
+  template <class W>
+  S L(const SurfaceInteraction& si, const W& lambda) const {
+    return L(si.n, si.wo, lambda);
   }
 
   template <class W>

@@ -47,6 +47,8 @@ struct LightLeSample {
   uint32_t instance = UINT32_MAX, primitive = UINT32_MAX;
 };
 
+// What every light provides: its kind, a sample towards a receiving point
+// with the sample's solid-angle density, and its power (for light selection).
 template <class L, class S>
 concept LightLike = requires(const L& l, const LightSampleContext& ctx, Point2f u, Vector3f w, wavelengths_t<S> lambda,
                              SurfaceInteraction si, Ray ray) {
@@ -55,5 +57,27 @@ concept LightLike = requires(const L& l, const LightSampleContext& ctx, Point2f 
   { l.pdf_li(ctx, w, si) } -> std::convertible_to<Float>;
   { l.power(lambda) } -> std::same_as<S>;
 };
+
+// What some lights provide besides, each a named concept that the scene and
+// the integrators test (lights/light_set.hpp checks them against the kind):
+// a surface that paths can hit and that emits there (area lights),
+template <class L, class S>
+concept SurfaceEmitter = LightLike<L, S> && requires(const L& l, const SurfaceInteraction& si, wavelengths_t<S> lambda) {
+  { l.L(si, lambda) } -> std::same_as<S>;
+};
+// radiance that a ray escaping the scene sees (environments, the sun),
+template <class L, class S>
+concept EscapeEmitter = LightLike<L, S> && requires(const L& l, const Ray& ray, wavelengths_t<S> lambda) {
+  { l.Le(ray, lambda) } -> std::same_as<S>;
+};
+// rays leaving the light, where light paths start (area lights),
+template <class L, class S>
+concept LightPathEmitter = LightLike<L, S> && requires(const L& l, Point2f u, Float uc, wavelengths_t<S> lambda) {
+  { l.sample_le(u, u, uc, lambda) } -> std::same_as<std::optional<LightLeSample<S>>>;
+};
+// and a light that needs the scene's bounding radius before rendering
+// (Scene::build passes it: lights at infinity, distant lights).
+template <class L>
+concept SceneSizedLight = requires(L& l, Float radius) { l.set_scene_radius(radius); };
 
 }  // namespace prism

@@ -193,10 +193,18 @@ inline Transform rotate(Float theta, const Vector3f& axis) {
 // Camera-to-world transform of a camera at `eye` looking at `target`. Camera
 // space has +x to the image's right, +y up and +z forward, so that a world
 // seen through it is not mirrored.
-inline Transform look_at_camera_to_world(const Point3f& eye, const Point3f& target, const Vector3f& up) {
+// The handedness of the WORLD a look-at is written for. Camera space is
+// always +x right, +y up, +z forward. A right-handed world (glTF, prism's own
+// scenes) puts the camera's +x at dir x up; a left-handed world (pbrt,
+// RenderMan) at up x dir, so that a pbrt scene's LookAt gives the image pbrt
+// gives rather than its mirror image.
+enum class Handedness { right, left };
+
+inline Transform look_at_camera_to_world(const Point3f& eye, const Point3f& target, const Vector3f& up,
+                                         Handedness world = Handedness::right) {
   Vector3f dir = normalize(target - eye);
-  Vector3f right = normalize(cross(dir, normalize(up)));
-  Vector3f new_up = cross(right, dir);
+  Vector3f right = world == Handedness::right ? normalize(cross(dir, normalize(up))) : normalize(cross(normalize(up), dir));
+  Vector3f new_up = world == Handedness::right ? cross(right, dir) : cross(dir, right);
   Matrix4 m;
   for (int i = 0; i < 3; ++i) {
     m.m[i][0] = right[i];

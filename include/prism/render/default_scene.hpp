@@ -4,32 +4,10 @@
 // sphere. The box spans [-1, 1]^3; the camera looks into it along -z.
 #pragma once
 #include "prism/cameras/perspective.hpp"
+#include "prism/geometry/shapes.hpp"
 #include "prism/render/scene.hpp"
 
 namespace prism {
-
-// Two triangles spanning the parallelogram p, p + a, p + a + b, p + b; the front
-// side is that of a x b.
-inline void append_quad(TriangleMesh& m, const Point3f& p, const Vector3f& a, const Vector3f& b) {
-  uint32_t base = uint32_t(m.positions.size());
-  m.positions.insert(m.positions.end(), {p, p + a, p + a + b, p + b});
-  m.uvs.insert(m.uvs.end(), {{0, 0}, {1, 0}, {1, 1}, {0, 1}});
-  m.indices.insert(m.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
-}
-
-// An axis-aligned box with outward-facing triangles.
-inline TriangleMesh make_box(const Point3f& lo, const Point3f& hi) {
-  TriangleMesh m;
-  Vector3f d = hi - lo;
-  Vector3f ex{d.x, 0, 0}, ey{0, d.y, 0}, ez{0, 0, d.z};
-  append_quad(m, lo, ey, ex);                  // -z
-  append_quad(m, lo + ez, ex, ey);             // +z
-  append_quad(m, lo, ez, ey);                  // -x
-  append_quad(m, lo + ex, ey, ez);             // +x
-  append_quad(m, lo, ex, ez);                  // -y
-  append_quad(m, lo + ey, ez, ex);             // +y
-  return m;
-}
 
 struct DefaultSceneDesc {
   Point3f eye{0, 0, 3.75f};
@@ -64,33 +42,6 @@ struct CornellBoxOptions {
   // does without motion). Off by default: a still box costs no motion work.
   bool box_motion = false;
 };
-
-// A right prism whose cross-section is the triangle a, b, c in the xz-plane,
-// from y0 to y1, with outward-facing triangles.
-inline TriangleMesh make_triangular_prism(Point2f a, Point2f b, Point2f c, Float y0, Float y1) {
-  TriangleMesh m;
-  Point3f lo[3] = {{a.x, y0, a.y}, {b.x, y0, b.y}, {c.x, y0, c.y}};
-  Point3f hi[3] = {{a.x, y1, a.y}, {b.x, y1, b.y}, {c.x, y1, c.y}};
-  // Orient the base so that a, b, c run clockwise seen from +y (normal -y below).
-  Vector3f n = cross(lo[1] - lo[0], lo[2] - lo[0]);
-  if (n.y > 0) {
-    std::swap(lo[1], lo[2]);
-    std::swap(hi[1], hi[2]);
-  }
-  m.positions = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
-  m.indices = {0, 1, 2, 3, 5, 4};  // bottom (-y), top (+y)
-  // Sides: two triangles each, wound so that the normal points away from the axis.
-  Point3f centre = lo[0] + (Vector3f(lo[1]) + Vector3f(lo[2]) - 2 * Vector3f(lo[0])) / 3;
-  for (uint32_t i = 0; i < 3; ++i) {
-    uint32_t j = (i + 1) % 3;
-    Vector3f side_n = cross(lo[j] - lo[i], hi[i] - lo[i]);
-    if (dot(side_n, lo[i] - centre) > 0)
-      m.indices.insert(m.indices.end(), {i, j, j + 3, i, j + 3, i + 3});
-    else
-      m.indices.insert(m.indices.end(), {i, j + 3, j, i, i + 3, j + 3});
-  }
-  return m;
-}
 
 // A biconvex cylindrical lens whose axis is vertical (y0..y1): its cross-section
 // in the xz-plane is bounded by two circular arcs of radius R across an

@@ -17,25 +17,12 @@
 #include <string_view>
 #include <variant>
 #include <vector>
-#include "prism/bxdfs/conductor.hpp"
-#include "prism/bxdfs/dielectric.hpp"
-#include "prism/bxdfs/diffuse.hpp"
-#include "prism/bxdfs/metal_rough.hpp"
+#include "prism/bxdfs/hooks.hpp"
+#include "prism/bxdfs/sets.hpp"
+#include "prism/lights/light_set.hpp"
 #include "prism/render/scene.hpp"
 
 namespace prism {
-
-// The BxDF sets prism-render compiles, smallest first. Each set's BxDFs are
-// a subset of the next one's only for diffuse and full; metal_rough (what the
-// glTF loader produces) and diffuse are side by side.
-template <class S>
-using diffuse_bxdf_set = bxdf_set<DiffuseBxDF<S>>;
-template <class S>
-using metal_rough_bxdf_set = bxdf_set<MetalRoughBxDF<S>>;
-// Every built-in BxDF: renders any scene prism can describe.
-template <class S>
-using full_bxdf_set =
-    bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>, ConductorBxDF<S>, ThinDielectricBxDF<S>, MetalRoughBxDF<S>>;
 
 enum class ColourModel { rgb, spectral };
 enum class BxDFSetKind { diffuse, metal_rough, full };
@@ -70,10 +57,6 @@ struct SceneFeatures {
   bool transparency = false;    // alpha-masked or blended materials
 };
 
-// Light<S>'s alternatives in order (scene.hpp).
-inline constexpr std::string_view light_kind_names[] = {"triangle_area", "sphere_area", "uniform_environment",
-                                                        "image_environment", "sun", "point", "spot", "distant"};
-
 namespace detail {
 template <class Set, size_t... I>
 std::string_view bxdf_name_at(size_t index, std::index_sequence<I...>) {
@@ -96,16 +79,15 @@ SceneFeatures scene_features(const Scene<S, Set>& scene) {
   std::vector<uint8_t> used(Set::size, 0);
   for (const auto& m : scene.materials()) {
     used[m.index()] = 1;
-    std::visit(
-        [&](const auto& p) {
-          if constexpr (requires { p.ior.is_dispersive(); })
-            if (p.ior.is_dispersive()) f.dispersion = true;
-          if constexpr (requires { p.is_volume(); p.volume_ior().is_dispersive(); })
-            if (p.is_volume() && p.volume_ior().is_dispersive()) f.dispersion = true;  // glTF volumes
-          if constexpr (requires { p.textures != nullptr; })
-            if (p.textures != nullptr) f.textures = true;
-        },
-        m);
+    auto ask = [&]<size_t I>(std::integral_constant<size_t, I>) {
+      using hooks = bxdf_hooks<typename Set::template bxdf<I>>;
+      const auto& p = std::get<I>(m);
+      if (hooks::dispersive(p)) f.dispersion = true;
+      if (hooks::textured(p)) f.textures = true;
+    };
+    [&]<size_t... I>(std::index_sequence<I...>) {
+      ((m.index() == I ? (ask(std::integral_constant<size_t, I>{}), true) : false) || ...);
+    }(std::make_index_sequence<Set::size>{});
   }
   for (size_t i = 0; i < Set::size; ++i)
     if (used[i]) f.bxdfs.push_back(detail::bxdf_name_at<Set>(i, std::make_index_sequence<Set::size>{}));

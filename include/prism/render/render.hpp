@@ -122,8 +122,7 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
     opt.aovs->set_xyz(traits::film_xyz);
   }
   const int w = film.width(), h = film.height(), ts = std::max(1, opt.tile_size);
-  Shutter shutter;
-  if constexpr (requires { camera.shutter(); }) shutter = camera.shutter();
+  const Shutter shutter = camera.shutter();
   const int spp = std::max(0, opt.spp);
   if (opt.first_sample < 0 || opt.first_sample > spp)
     throw Error("render: first_sample " + std::to_string(opt.first_sample) + " is outside [0, spp = " +
@@ -154,9 +153,9 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
   // chunks taken from a counter like the tiles. Light path i belongs to
   // sample i / (w h), so a sample range owns a range of paths; a tile stride
   // takes every stride-th chunk of it.
+  constexpr bool has_caustic_pass = integrator_capabilities<Integrator>::caustic_pass;
   bool caustics = false;
-  if constexpr (requires { integrator.caustics_active(scene); })
-    caustics = (!plan || plan->caustics) && integrator.caustics_active(scene);
+  if constexpr (has_caustic_pass) caustics = (!plan || plan->caustics) && integrator.caustics_active(scene);
   const uint64_t pixels = uint64_t(w) * uint64_t(h);
   const uint64_t light_paths = caustics ? pixels * uint64_t(spp) : 0;
   const uint64_t lp_begin = caustics ? pixels * uint64_t(s_begin) : 0;
@@ -245,8 +244,11 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
             if (opt.aovs) {
               // Their own random stream, so the image does not depend on them.
               PCG32 aov_rng(hash_values(uint64_t(x), uint64_t(y), uint64_t(s), opt.seed), 0xa0f5a0f5ull);
-              opt.aovs->add_sample(x, y, first_hit_aovs(scene, ray, lambda, [&] { return aov_rng.next_float(); }),
-                                   fs.weight);
+              auto u = [&] { return aov_rng.next_float(); };
+              if constexpr (integrator_capabilities<Integrator>::aovs)
+                opt.aovs->add_sample(x, y, integrator.aovs(scene, ray, lambda, u), fs.weight);
+              else
+                opt.aovs->add_sample(x, y, first_hit_aovs(scene, ray, lambda, u), fs.weight);
             }
           }
         }
@@ -256,7 +258,7 @@ RenderStats render_pass(const Scene& scene, const Camera& camera, const Integrat
         opt.progress(d, total_work);
       }
     }
-    if constexpr (requires { integrator.caustics_active(scene); }) {
+    if constexpr (has_caustic_pass) {
       for (;;) {
         if (!caustics || (opt.cancel && opt.cancel->load(std::memory_order_relaxed))) {
           if (caustics) cancelled = true;
@@ -481,11 +483,22 @@ RenderStats render_adaptive(const Scene& scene, const Camera& camera, const Inte
 }
 }  // namespace detail
 
-// Camera: PerspectiveCamera, OrthographicCamera or any type with
-// generate_ray(CameraSample) (and connect(p, u_lens) for the caustic pass).
-template <class Scene, class Integrator, class Filter = BoxFilter, class Camera = PerspectiveCamera>
+// Renders the scene through the camera into the film. Scene models
+// SceneLike, Integrator IntegratorLike for it (with each sampler
+// RenderOptions::sampler may name), Camera CameraLike; an integrator that
+// declares the caustic pass must provide it for this scene and camera, and
+// one that declares AOVs its aovs() (integrators/integrator.hpp).
+template <class Scene, class Integrator, class Filter = BoxFilter, CameraLike Camera = PerspectiveCamera>
+  requires SceneLike<Scene> && IntegratorLike<Integrator, Scene, IndependentSampler> &&
+           IntegratorLike<Integrator, Scene, StratifiedSampler> && IntegratorLike<Integrator, Scene, SobolSampler>
 RenderStats render(const Scene& scene, const Camera& camera, const Integrator& integrator, Film& film,
                    const RenderOptions& opt, const Filter& filter = Filter{}) {
+  static_assert(!integrator_capabilities<Integrator>::caustic_pass ||
+                    CausticPassIntegrator<Integrator, Scene, Camera, IndependentSampler>,
+                "the integrator declares IntegratorCapability::caustic_pass but has no caustics_active(scene) or "
+                "trace_caustic_path(scene, camera, sampler, counter, splat) for this scene and camera");
+  static_assert(!integrator_capabilities<Integrator>::aovs || AovIntegrator<Integrator, Scene>,
+                "the integrator declares IntegratorCapability::aovs but has no aovs(scene, ray, lambda, u)");
   if (opt.adaptive_target != 0) return detail::render_adaptive(scene, camera, integrator, film, opt, filter);
   return detail::render_pass(scene, camera, integrator, film, opt, filter, nullptr);
 }

@@ -11,28 +11,16 @@
 #include <vector>
 #include "prism/accel/scene_accel.hpp"
 #include "prism/bxdfs/bsdf.hpp"
-#include "prism/bxdfs/conductor.hpp"
-#include "prism/bxdfs/dielectric.hpp"
-#include "prism/bxdfs/diffuse.hpp"
+#include "prism/bxdfs/hooks.hpp"
+#include "prism/bxdfs/sets.hpp"
 #include "prism/error.hpp"
-#include "prism/lights/area.hpp"
+#include "prism/integrators/integrator.hpp"
 #include "prism/lights/bvh_sampler.hpp"
-#include "prism/lights/image_infinite.hpp"
-#include "prism/lights/infinite.hpp"
 #include "prism/lights/light_sampler.hpp"
+#include "prism/lights/light_set.hpp"
 #include "prism/lights/power_sampler.hpp"
-#include "prism/lights/punctual.hpp"
 
 namespace prism {
-
-// The BxDFs a Scene is instantiated with unless told otherwise. A renderer
-// that needs fewer (or more: a user's own) names its own bxdf_set.
-template <class S>
-using default_bxdf_set = bxdf_set<DiffuseBxDF<S>, DielectricBxDF<S>, ConductorBxDF<S>, ThinDielectricBxDF<S>>;
-
-template <class S>
-using Light = std::variant<TriangleAreaLight<S>, SphereAreaLight<S>, UniformInfiniteLight<S>, ImageInfiniteLight<S>,
-                           SunLight<S>, PointLight<S>, SpotLight<S>, DistantLight<S>>;
 
 // How next-event estimation chooses a light: with probability proportional
 // to its power, uniformly, by a light BVH that weighs the lights by their
@@ -113,7 +101,8 @@ class Scene {
         throw Error("scene: sphere " + std::to_string(i) + ": radius must be positive and finite, centre finite");
     }
     for (size_t i = 0; i < m_materials.size(); ++i)
-      std::visit([&](const auto& p) { validate_material(p, "scene: material " + std::to_string(i)); }, m_materials[i]);
+      std::visit([&](const auto& p) { hooks_of<std::decay_t<decltype(p)>>::validate(p, "scene: material " + std::to_string(i)); },
+                 m_materials[i]);
     for (size_t i = 0; i < m_info.size(); ++i) {
       if (m_info[i].material < 0 || size_t(m_info[i].material) >= m_materials.size())
         throw Error("scene: instance " + std::to_string(i) + ": material index " + std::to_string(m_info[i].material) +
@@ -125,6 +114,9 @@ class Scene {
         if (!e->radiance.is_finite() || e->radiance.r < 0 || e->radiance.g < 0 || e->radiance.b < 0 ||
             !(e->scale >= 0) || !std::isfinite(e->scale))
           throw Error("scene: instance " + std::to_string(i) + ": emission must be finite and non-negative");
+        if (e->back && in.kind == Instance::Kind::sphere)
+          throw Error("scene: instance " + std::to_string(i) +
+                      ": a sphere light emits outwards or both ways, not from its back (EmittingSide::back)");
       }
     }
     m_accel.build(opt);
@@ -144,7 +136,8 @@ class Scene {
       const TriangleMesh& mesh = meshes[in.geometry];
       // A mirroring transform reverses the winding (glTF: the front face is
       // the one the object-space winding names, whatever the determinant).
-      bool mirror = in.mirror;
+      // EmittingSide::back turns the emitting side over the same way.
+      bool mirror = in.mirror != info.emission->back;
       std::optional<RGB> texture_mean;
       if (info.emission->texture) texture_mean = info.emission->texture->average();
       for (size_t t = 0; t < mesh.triangle_count(); ++t) {
@@ -170,29 +163,26 @@ class Scene {
     m_any_transparent = false;
     for (size_t i = 0; i < m_materials.size(); ++i) {
       m_transparent[i] = std::visit(
-          [](const auto& p) -> uint8_t {
-            if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::may_be_transparent(p); })
-              return traits_of<std::decay_t<decltype(p)>>::may_be_transparent(p) ? 1 : 0;
-            else
-              return 0;
-          },
+          [](const auto& p) -> uint8_t { return hooks_of<std::decay_t<decltype(p)>>::may_be_transparent(p) ? 1 : 0; },
           m_materials[i]);
       if (m_transparent[i]) m_any_transparent = true;
     }
     m_has_specular = false;
     for (const auto& m : m_materials)
-      if (std::visit([](const auto& p) { return material_has_specular(p); }, m)) m_has_specular = true;
+      if (std::visit([](const auto& p) { return hooks_of<std::decay_t<decltype(p)>>::has_specular(p); }, m))
+        m_has_specular = true;
     Bounds3f b = m_accel.bounds();
     Float radius = b.empty() ? 1 : length(b.diagonal()) / 2;
     for (auto l : m_extra_lights) {
       std::visit(
           [&](auto& light) {
-            if constexpr (requires { light.set_scene_radius(radius); }) light.set_scene_radius(radius);
+            if constexpr (SceneSizedLight<std::decay_t<decltype(light)>>) light.set_scene_radius(radius);
           },
           l);
       m_lights.push_back(l);
       // Lights that a ray escaping the scene can see (detail::escaped).
-      bool has_le = std::visit([](const auto& light) { return requires { light.Le(Ray{}, wavelengths_t<S>{}); }; }, l);
+      bool has_le =
+          std::visit([](const auto& light) { return EscapeEmitter<std::decay_t<decltype(light)>, S>; }, l);
       if (has_le) m_infinite_indices.push_back(uint32_t(m_lights.size() - 1));
     }
     m_resolved = m_selection;
@@ -265,17 +255,15 @@ class Scene {
   std::optional<S> interior_absorption(const SurfaceInteraction& si, const W& lambda) const {
     return std::visit(
         [&](const auto& p) -> std::optional<S> {
-          if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::volume(p); }) {
-            if (const VolumeAbsorption* v = traits_of<std::decay_t<decltype(p)>>::volume(p))
-              return absorption_coefficient<S>(*v, lambda);
-          }
+          if (const VolumeAbsorption* v = hooks_of<std::decay_t<decltype(p)>>::volume(p))
+            return absorption_coefficient<S>(*v, lambda);
           return std::nullopt;
         },
         m_materials[size_t(si.material)]);
   }
 
-  // True if some material may scatter specularly (a delta lobe), from its
-  // bxdf_traits: has_specular(material) when provided, else the static flags.
+  // True if some material may scatter specularly (a delta lobe):
+  // bxdf_hooks::has_specular.
   // Computed by build(): the integrators ask per sample.
   bool has_specular() const { return m_has_specular; }
   // True if the scene has area lights (emitting triangles or spheres); valid after build().
@@ -291,7 +279,8 @@ class Scene {
   // spectra): the colour model a front end should choose without being told.
   bool needs_spectral() const {
     for (const auto& m : m_materials)
-      if (std::visit([](const auto& p) { return material_needs_spectral(p); }, m)) return true;
+      if (std::visit([](const auto& p) { return hooks_of<std::decay_t<decltype(p)>>::needs_spectral(p); }, m))
+        return true;
     return false;
   }
 
@@ -331,13 +320,7 @@ class Scene {
     return si;
   }
   Float material_opacity(const SurfaceInteraction& si) const {
-    return std::visit(
-        [&](const auto& p) -> Float {
-          if constexpr (requires { traits_of<std::decay_t<decltype(p)>>::opacity(p, si); })
-            return traits_of<std::decay_t<decltype(p)>>::opacity(p, si);
-          else
-            return Float(1);
-        },
+    return std::visit([&](const auto& p) -> Float { return hooks_of<std::decay_t<decltype(p)>>::opacity(p, si); },
         m_materials[size_t(si.material)]);
   }
   // A number in [0, 1) from the ray and the primitive it hit.
@@ -386,21 +369,7 @@ class Scene {
     else return bxdf_index_of<P, I + 1>();
   }
   template <class P>
-  using traits_of = bxdf_traits<typename Set::template bxdf<bxdf_index_of<P>()>>;
-  template <class P>
-  static bool material_needs_spectral(const P& p) {
-    if constexpr (requires { traits_of<P>::needs_spectral(p); }) return traits_of<P>::needs_spectral(p);
-    else return false;
-  }
-  template <class P>
-  static bool material_has_specular(const P& p) {
-    if constexpr (requires { traits_of<P>::has_specular(p); }) return traits_of<P>::has_specular(p);
-    else return is_specular(traits_of<P>::flags);
-  }
-  template <class P>
-  static void validate_material(const P& p, const std::string& where) {
-    if constexpr (requires { traits_of<P>::validate(p, where); }) traits_of<P>::validate(p, where);
-  }
+  using hooks_of = bxdf_hooks<typename Set::template bxdf<bxdf_index_of<P>()>>;
 
   static void validate_mesh(const TriangleMesh& m, size_t id) {
     std::string where = "scene: mesh " + std::to_string(id) + ": ";
