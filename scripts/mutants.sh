@@ -57,8 +57,8 @@ kulla_conty_fms | include/prism/bxdfs/ms_compensation.hpp | return fa * fa * e_a
 lambert_no_pi | include/prism/bxdfs/diffuse.hpp | S eval(Vector3f wo, Vector3f wi, TransportMode) const {@@    if (!same_hemisphere(wo, wi)) return S{};@@    return m_r * inv_pi; | S eval(Vector3f wo, Vector3f wi, TransportMode) const {@@    if (!same_hemisphere(wo, wi)) return S{};@@    return m_r; | prism_test_reference prism_test_bxdfs
 oren_nayar_A_B_swapped | examples/oren_nayar.hpp | if (s <= 0) return m_a + m_b * s; | if (s <= 0) return m_b + m_a * s; | prism_test_reference prism_test_bxdfs
 mis_balance | include/prism/sampling/warps.hpp | Float f = f_pdf * f_pdf, g = g_pdf * g_pdf; | Float f = f_pdf, g = g_pdf; | prism_test_reference prism_test_sampling
-cosine_pdf_factor | include/prism/sampling/warps.hpp | return cos_theta > 0 ? cos_theta * inv_pi : 0; | return cos_theta > 0 ? cos_theta * inv_2pi : 0; | prism_test_sampling
-offset_ignores_error | include/prism/geometry/ray.hpp | Float d = dot(abs(n), p_error); | Float d = 0 * dot(abs(n), p_error); | prism_test_geometry
+cosine_pdf_factor | include/prism/sampling/warps.hpp | return cos_theta > 0 ? cos_theta * inv_pi : 0; | return cos_theta > 0 ? cos_theta * inv_2pi : 0; | prism_test_reference prism_test_sampling
+offset_ignores_error | include/prism/geometry/ray.hpp | Float d = dot(abs(n), p_error); | Float d = 0 * dot(abs(n), p_error); | prism_test_reference prism_test_geometry
 cmf_index | include/prism/spectra/spectrum.hpp | int i = std::min(int(x), data::cie_samples - 2); | int i = std::min(int(x) + 1, data::cie_samples - 2); | prism_test_reference prism_test_spectra
 sellmeier_sign | include/prism/spectra/dispersion.hpp | n2 += m_B[size_t(i)] * l2 / (l2 - m_C[size_t(i)]); | n2 += m_B[size_t(i)] * l2 / (l2 + m_C[size_t(i)]); | prism_test_reference prism_test_spectra
 planck_sign | include/prism/spectra/spectrum.hpp | (std::exp(h * c / (l * kb * T)) - 1) | (std::exp(h * c / (l * kb * T)) + 1) | prism_test_reference prism_test_spectra
