@@ -14,8 +14,9 @@
 #   --all-labels  run every label of a mutant even after one has killed it
 #                 (default: stop at the first; labels are listed cheapest first)
 # A label whose executable the tree does not have (an older tree without
-# tests/reference) is skipped. The unmutated copy is built and tested first:
-# if it fails, nothing is reported. Exits non-zero if any mutant survives, a
+# tests/reference) is skipped. Each label is first built and tested on the
+# unmutated copy (the first time a mutant needs it): if that fails, the run
+# stops. Exits non-zero if any mutant survives, a
 # pattern does not match exactly once in its file, or a mutant does not
 # compile. Prints per mutant KILLED / SURVIVED, the time taken, and a score.
 set -euo pipefail
@@ -111,21 +112,23 @@ has_target() { ninja -C "$build" -t query "$1" >/dev/null 2>&1; }
 build_label() { cmake --build "$build" --target "$1" -j 2 >"$work/build-$1.log" 2>&1; }
 run_label() { (cd "$build" && ctest -L "^$1\$" -j 2 --timeout 600 >"$work/test-$1.log" 2>&1); }
 
-# The unmutated tree must pass every label used.
-declare -A needed=()
-while IFS= read -r line; do
-  [ -z "$line" ] && continue
-  id="${line%% | *}"
-  if [ -n "$only" ] && [[ "$only" != *",$id,"* ]]; then continue; fi
-  for l in ${line##* | }; do needed[$l]=1; done
-done <<<"$mutants"
-for l in "${!needed[@]}"; do
-  if ! has_target "$l"; then echo "baseline: $l absent from this tree, skipped"; continue; fi
-  t0=$SECONDS
+# The unmutated tree must pass every label used: checked the first time a
+# label is needed (a label that the cheaper ones make unnecessary is never
+# built). $1: the label; $2: the file the current mutant changed, restored
+# for the check and mutated again after it (apply's arguments follow).
+declare -A baseline=()
+ensure_baseline() {
+  local l="$1" file="$2"
+  [ -n "${baseline[$l]:-}" ] && return 0
+  shift 2
+  restore "$file"
+  local t0=$SECONDS
   build_label "$l" || { echo "baseline: $l does not build ($work/build-$l.log)"; exit 1; }
   run_label "$l" || { echo "baseline: $l fails unmutated ($work/test-$l.log)"; exit 1; }
-  echo "baseline: $l passes ($((SECONDS - t0)) s)"
-done
+  echo "baseline: $l passes unmutated ($((SECONDS - t0)) s)"
+  baseline[$l]=1
+  apply "$src/$file" "$@"
+}
 
 killed=0 survived=0 broken=0 total=0
 summary=""
@@ -143,6 +146,7 @@ while IFS= read -r line; do
   else
     for l in $labels; do
       has_target "$l" || continue
+      ensure_baseline "$l" "$file" "$from" "$to"
       if ! build_label "$l"; then
         status="DOES NOT BUILD ($work/build-$l.log)"
         break
