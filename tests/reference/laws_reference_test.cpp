@@ -26,12 +26,10 @@ namespace laws_reference_test {
 
 using namespace prism;
 namespace ref = reference_physics;
+using ref::float_tol;  // gamma(64): the tolerance of a float closed form
 
 namespace {
-// Float evaluation of a closed form (see microfacet_reference_test.cpp):
-// relative error below gamma(64) = 64 u / (1 - 64 u), u = 2^-24.
-constexpr double u = 0x1p-24;
-constexpr double float_tol = 64 * u / (1 - 64 * u);
+constexpr double u = ref::unit_roundoff;
 
 // Directional albedo of bxdf at wo: mean and standard error of f |cos| / pdf
 // over its own samples (failures count 0).

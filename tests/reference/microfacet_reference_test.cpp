@@ -6,13 +6,11 @@
 // transport modes, Lambert, the metal-rough Schlick Fresnel, and the
 // Kulla-Conty compensation's F_ms and E_avg.
 //
-// Tolerances (pointwise): prism evaluates each quantity in float with at most
-// ~30 roundings of relative size u = 2^-24, in sums of positive terms (no
-// cancellation), so its relative error is below gamma(64) = 64u / (1 - 64u)
-// ~ 3.8e-6 with a factor-2 margin; the references are double (error ~1e-15).
-// A BSDF value depends on the half vector prism rounds to float (a few u in
-// angle), and D's logarithmic derivative in theta_m reaches 2 / alpha, so
-// its tolerance adds 8u / alpha.
+// Tolerances (pointwise): float_tol = gamma(64) ~ 3.8e-6 relative for a
+// closed form (reference_physics.hpp); the references are double (error
+// ~1e-15). A BSDF value depends on the half vector prism rounds to float
+// (a few u in angle), and D's logarithmic derivative in theta_m reaches
+// 2 / alpha, so its tolerance adds 8u / alpha.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <prism/bxdfs/conductor.hpp>
@@ -28,10 +26,10 @@ namespace microfacet_reference_test {
 
 using namespace prism;
 namespace ref = reference_physics;
+using ref::float_tol;
 
 namespace {
-constexpr double u = 0x1p-24;
-constexpr double float_tol = 64 * u / (1 - 64 * u);
+constexpr double u = ref::unit_roundoff;
 double bsdf_tol(double alpha) { return float_tol + 8 * u / alpha; }
 
 ref::Dir to_dir(const Vector3f& v) { return {v.x, v.y, v.z}; }

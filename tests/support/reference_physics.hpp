@@ -18,6 +18,13 @@
 namespace reference_physics {
 
 constexpr double pi = 3.14159265358979323846;
+// Comparing prism's float evaluation of a closed form with these: prism
+// rounds each quantity at most ~30 times, by u = 2^-24 relative, in sums of
+// positive terms (no cancellation), so its relative error is below
+// gamma(64) = 64 u / (1 - 64 u) ~ 3.8e-6, with a factor-2 margin. Where a
+// quantity is ill-conditioned, the tests add its condition number times u.
+constexpr double unit_roundoff = 0x1p-24;
+constexpr double float_tol = 64 * unit_roundoff / (1 - 64 * unit_roundoff);
 
 struct Dir {
   double x = 0, y = 0, z = 1;
