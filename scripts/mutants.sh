@@ -10,6 +10,7 @@
 #   --tree DIR    the source tree to mutate (default: this checkout)
 #   --work DIR    where the copy and its build live (default: /tmp/prism-mutants)
 #   --only IDS    run only these mutants (comma-separated ids)
+#   --no-baseline skip the unmutated check (another run did it)
 #   --check       only check that every pattern applies (no build)
 #   --all-labels  run every label of a mutant even after one has killed it
 #                 (default: stop at the first; labels are listed cheapest first)
@@ -26,6 +27,7 @@ work="${TMPDIR:-/tmp}/prism-mutants"
 only=""
 all_labels=0
 check=0
+no_baseline=0
 while (($#)); do
   case "$1" in
     --tree) tree="$(cd "$2" && pwd)"; shift 2 ;;
@@ -33,6 +35,7 @@ while (($#)); do
     --only) only=",$2,"; shift 2 ;;
     --all-labels) all_labels=1; shift ;;
     --check) check=1; shift ;;
+    --no-baseline) no_baseline=1; shift ;;
     *) echo "unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -119,7 +122,7 @@ run_label() { (cd "$build" && ctest -L "^$1\$" -j 2 --timeout 600 >"$work/test-$
 declare -A baseline=()
 ensure_baseline() {
   local l="$1" file="$2"
-  [ -n "${baseline[$l]:-}" ] && return 0
+  [ -n "${baseline[$l]:-}" ] || [ "$no_baseline" = 1 ] && return 0
   shift 2
   restore "$file"
   local t0=$SECONDS

@@ -3,8 +3,9 @@
 // 2007), Lambda, G1 and the height-correlated G2 (Heitz 2014), the visible
 // normals' density (Heitz 2018), the rough conductor's value and pdf, the
 // rough dielectric's reflection and transmission (Walter 2007) in both
-// transport modes, Lambert, the metal-rough Schlick Fresnel, and the
-// Kulla-Conty compensation's F_ms and E_avg.
+// transport modes and its albedo (a two-sided furnace, both sides), Lambert,
+// the metal-rough Schlick Fresnel, and the Kulla-Conty compensation's F_ms
+// and E_avg.
 //
 // Tolerances (pointwise): float_tol = gamma(64) ~ 3.8e-6 relative for a
 // closed form (reference_physics.hpp); the references are double (error
@@ -173,6 +174,40 @@ TEST_CASE("rough dielectric eval equals Walter 2007 reflection and transmission,
     }
   CHECK(transmitted > 1000);
   WARN("rough dielectric: max relative error x alpha " << worst);
+}
+
+TEST_CASE("rough dielectric albedo (R + T, importance transport) equals its double quadrature from both sides", "[reference][dielectric][furnace]") {
+  // Two-sided: each estimate of f |cos| / pdf = G2 / G1 in [0, 1] (the
+  // energy fraction) over 40000 samples against ref::dielectric_albedo
+  // (resolution 256 x 16 panels: within 3.3e-5 of twice that, so 1e-4 is
+  // added), sigma = ref::bounded_sigma, z = sidak_z(1e-3, 18) = 4.03.
+  // From inside (wo below) the interface is seen with 1 / eta, total
+  // internal reflection included.
+  const int m = 18;
+  const double z = ref::sidak_z(1e-3, m);
+  PCG32 rng(2007, 5);
+  double worst = 0;
+  for (double side : {1.0, -1.0})
+    for (double alpha : {0.05, 0.3, 1.0})
+      for (double theta : {0.0, 45.0, 80.0}) {
+        DielectricBxDF<RGB> b(1.5f, TrowbridgeReitz(Float(alpha), Float(alpha)));
+        double t = theta * ref::pi / 180;
+        Vector3f wo(Float(std::sin(t)), 0, Float(side * std::cos(t)));
+        const int n = 40000;
+        double sum = 0;
+        for (int i = 0; i < n; ++i) {
+          auto bs = b.sample(wo, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::importance);
+          if (bs && bs->pdf > 0) sum += double(bs->f[0]) * std::abs(bs->wi.z) / bs->pdf;
+        }
+        double mean = sum / n;
+        double want = ref::dielectric_albedo(std::acos(std::abs(double(wo.z))), alpha, side > 0 ? 1.5 : 1 / 1.5, 256, 16);
+        double sigma = ref::bounded_sigma(want, n);
+        INFO((side > 0 ? "outside" : "inside") << " alpha " << alpha << " theta " << theta << ": " << mean << " vs "
+                                               << want << " +- " << sigma);
+        CHECK(std::abs(mean - want) <= z * sigma + 1e-4);
+        worst = std::max(worst, std::abs(mean - want) / sigma);
+      }
+  WARN("rough dielectric furnace: " << m << " comparisons, max |albedo - reference| / sigma " << worst << ", z " << z);
 }
 
 TEST_CASE("Lambert is rho / pi and the metal-rough Fresnel is Schlick's", "[reference][diffuse][metal_rough]") {

@@ -14,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <functional>
 
 namespace reference_physics {
 
@@ -242,6 +243,86 @@ inline double conductor_albedo(double theta_o, double alpha, int n_phi = 64, int
 // Gauss-Legendre in mu.
 inline double conductor_average_albedo(double alpha) {
   return 2 * integrate<16>([&](double mu) { return conductor_albedo(std::acos(mu), alpha, 32, 4) * mu; }, 0, 1, 2);
+}
+
+// ---- Directional albedo of the rough dielectric -------------------------------
+// The energy that one microfacet event sends anywhere (reflection plus
+// transmission, importance transport: no 1/eta'^2), for light from wo above
+// an interface of relative index eta (the side below / wo's side; eta < 1
+// is light from the denser side, with total internal reflection):
+//   E = int D_wo(h) [F(wo.h) G2(wo, wr) [wr.z > 0] + (1 - F) G2(wo, wt) [wt.z < 0]] / G1(wo) dh
+// (Walter 2007, eqs. 20-21, with the sampling density of Heitz 2018), wr the
+// mirror direction, wt the refraction by Snell's law in vector form,
+//   wt = -wo / eta + (c / eta - sqrt(1 - (1 - c^2) / eta^2)) h,  c = wo.h.
+// Same variables as conductor_albedo; on each phi the xi interval stops
+// where h turns its back to wo, and is split where wr and wt cross the
+// horizon and where total internal reflection starts (found by bisection),
+// so that every piece has a smooth integrand.
+inline double dielectric_albedo(double theta_o, double alpha, double eta, int n_phi = 128, int panels = 8) {
+  Dir wo{std::sin(theta_o), 0, std::cos(theta_o)};
+  auto xi_of = [&](double th) {
+    if (th >= pi / 2) return 1.0;
+    double t2 = std::pow(std::tan(th), 2);
+    return t2 / (alpha * alpha + t2);
+  };
+  double sum = 0;
+  for (int j = 0; j < n_phi; ++j) {
+    double phi = pi * (j + 0.5) / n_phi;
+    double delta = std::atan2(std::sin(theta_o) * std::cos(phi), std::cos(theta_o));
+    auto normal = [&](double th) { return from_angles(th, phi); };
+    auto reflected_up = [&](double th) { return mirror_about(wo, normal(th)).z > 0; };
+    auto transmits = [&](double th) {  // refraction exists and goes below
+      Dir h = normal(th);
+      double c = dot(wo, h), k = 1 - (1 - c * c) / (eta * eta);
+      if (!(k > 0)) return false;
+      double a = c / eta - std::sqrt(k);
+      return -wo.z / eta + a * h.z < 0;
+    };
+    double th_vis = std::min(pi / 2, delta + pi / 2);  // wo.h > 0 below it
+    // Breakpoints: where a predicate changes along theta (bisection to 1e-13).
+    std::array<double, 8> cuts{};
+    int n_cuts = 0;
+    cuts[size_t(n_cuts++)] = 0;
+    for (auto pred : {std::function<bool(double)>(reflected_up), std::function<bool(double)>(transmits)}) {
+      const int scan = 256;
+      for (int k = 0; k < scan; ++k) {
+        double a = th_vis * k / scan, b = th_vis * (k + 1) / scan;
+        if (pred(a) == pred(b)) continue;
+        for (int it = 0; it < 60; ++it) {
+          double m = (a + b) / 2;
+          (pred(m) == pred(a) ? a : b) = m;
+        }
+        if (n_cuts < 7) cuts[size_t(n_cuts++)] = (a + b) / 2;
+      }
+    }
+    cuts[size_t(n_cuts++)] = th_vis;
+    std::sort(cuts.begin(), cuts.begin() + n_cuts);
+    for (int c = 0; c + 1 < n_cuts; ++c) {
+      double x0 = xi_of(cuts[size_t(c)]), x1 = xi_of(cuts[size_t(c + 1)]);
+      if (!(x1 > x0)) continue;
+      auto g = [&](double t) {
+        // Points cluster at both ends (t -> x0 + (x1 - x0)(3t^2 - 2t^3)).
+        double s = t * t * (3 - 2 * t), ds = 6 * t * (1 - t);
+        double xi = x0 + (x1 - x0) * s;
+        double th = std::atan(alpha * std::sqrt(xi / (1 - xi)));
+        Dir h = normal(th);
+        double cwh = dot(wo, h);
+        if (!(cwh > 0)) return 0.0;
+        double F = fresnel_dielectric(cwh, eta), v = 0;
+        Dir wr = mirror_about(wo, h);
+        if (wr.z > 0) v += F * smith_G2(alpha, alpha, wo, wr);
+        double k = 1 - (1 - cwh * cwh) / (eta * eta);
+        if (k > 0) {
+          double a = cwh / eta - std::sqrt(k);
+          Dir wt{-wo.x / eta + a * h.x, -wo.y / eta + a * h.y, -wo.z / eta + a * h.z};
+          if (wt.z < 0) v += (1 - F) * smith_G2(alpha, alpha, wo, wt);
+        }
+        return (x1 - x0) * ds * v * cwh / (wo.z * h.z);
+      };
+      sum += integrate(g, 0, 1, panels);
+    }
+  }
+  return sum / n_phi;
 }
 
 // ---- Oren-Nayar in Fujii's improved form -------------------------------------
