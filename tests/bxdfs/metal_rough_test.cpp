@@ -18,6 +18,7 @@
 #include <prism/render/scene.hpp>
 #include <prism/spectra/traits.hpp>
 #include "bxdfs/bxdf_check.hpp"
+#include "support/reference_physics.hpp"
 
 namespace metal_rough_test {
 
@@ -153,8 +154,9 @@ void chi2_sweep(PCG32& rng, std::vector<Chi2Run>& runs) {
 }
 
 // ---- an independent transcription of the model, in double -----------------
-// From the formulas in metal_rough.hpp's header comment, sharing only D and
-// G with the code under test.
+// From the formulas in metal_rough.hpp's header comment, with D, G2, G1 and
+// the VNDF pdf from tests/support/reference_physics.hpp (Walter 2007, Heitz
+// 2014, 2018): nothing is borrowed from the code under test.
 struct Reference {
   MetalRoughMaterial m;
   double eval(const Vector3f& wo_in, const Vector3f& wi_in, int ch) const {
@@ -170,11 +172,13 @@ struct Reference {
     double w = m.specular, metal = m.metallic, T = m.transmission;
     auto s = [](double c) { return std::pow(1 - c, 5); };
     auto B = [&](double c) { return 1 - w * (f0_max + (1 - f0_max) * s(c)); };
-    TrowbridgeReitz d(MicrofacetRoughness::from_perceptual(m.roughness));
+    const double alpha = double(m.roughness) * m.roughness;  // glTF: alpha = roughness^2
     auto lobe = [&](const Vector3f& a, const Vector3f& b, double& c) {
-      Vector3f h = normalize(a + b);
-      c = dot(a, h);
-      return double(d.D(h)) * d.G(a, b) / (4.0 * a.z * b.z);
+      namespace rp = reference_physics;
+      rp::Dir x{a.x, a.y, a.z}, y{b.x, b.y, b.z};
+      rp::Dir h = rp::normalized({x.x + y.x, x.y + y.y, x.z + y.z});
+      c = rp::dot(x, h);
+      return rp::ggx_D(alpha, alpha, h) * rp::smith_G2(alpha, alpha, x, y) / (4.0 * x.z * y.z);
     };
     double f = 0;
     if (wi.z > 0) {
@@ -200,8 +204,13 @@ struct Reference {
       wo = flip_z(wo);
       wi = flip_z(wi);
     }
-    TrowbridgeReitz d(MicrofacetRoughness::from_perceptual(m.roughness));
-    auto vndf = [&](const Vector3f& b) { return double(d.G1(wo)) * d.D(normalize(wo + b)) / (4.0 * wo.z); };
+    namespace rp = reference_physics;
+    const double alpha = double(m.roughness) * m.roughness;
+    const rp::Dir o{wo.x, wo.y, wo.z};
+    auto vndf = [&](const Vector3f& b) {
+      rp::Dir h = rp::normalized({o.x + b.x, o.y + b.y, o.z + b.z});
+      return rp::ggx_vndf(alpha, alpha, o, h) / (4.0 * rp::dot(o, h));
+    };
     if (wi.z > 0) return p.diffuse * wi.z / pi_d + p.reflection * vndf(wi);
     return p.transmission * vndf(flip_z(wi));
   }
@@ -285,6 +294,19 @@ TEST_CASE("metal-rough white furnace is at most 1, and exactly 1 where the model
           auto b = make_bxdf<RGB>(mat);
           for (double theta : test_angles) {
             auto a = albedo_all(b, direction_at(theta), 20000, rng);
+            // A white metal is the F = 1 conductor at alpha = roughness^2:
+            // two-sided against its quadrature (quadrature error < 5e-5;
+            // sigma: reference_physics::bounded_sigma, for samples in [0, 1]),
+            // z = sidak_z(1e-3, 60) = 4.3 for the 5 x 3 x 4 white metals
+            // with r > 0 (the channels are one estimate).
+            if (m == 1 && r > 0) {
+              double want = reference_physics::conductor_albedo(std::acos(double(direction_at(theta).z)),
+                                                                double(r) * r, 128, 16);
+              INFO(v.name << " white metal, roughness " << r << " theta " << theta << ": " << a[0].mean << " +- "
+                          << a[0].sigma << " vs " << want);
+              CHECK(std::abs(a[0].mean - want) <=
+                    reference_physics::sidak_z(1e-3, 60) * reference_physics::bounded_sigma(want, 20000) + 5e-5);
+            }
             for (int c = 0; c < 3; ++c) {
               INFO(v.name << " roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta
                           << " channel " << c << ": " << a[size_t(c)].mean << " +- " << a[size_t(c)].sigma);

@@ -54,6 +54,10 @@ TEST_CASE("dielectric multiple scattering: the table's size, build time and meas
   double worst = 0, sum = 0;
   int n = 0;
   std::string at;
+  struct {
+    int side;
+    double eta, a, mu;
+  } worst_at{};
   for (int side = 0; side < 2; ++side)
     for (double eta : {1.33, 1.5, 1.7, 2.4})
       for (double a : {0.03, 0.05, 0.13, 0.3, 0.47, 0.6, 0.81, 1.0})
@@ -65,18 +69,29 @@ TEST_CASE("dielectric multiple scattering: the table's size, build time and meas
           ++n;
           if (e > worst) {
             worst = e;
+            worst_at = {side, eta, a, mu};
             std::ostringstream s;
             s << "side " << side << " eta " << eta << " alpha " << a << " theta " << th;
             at = s.str();
           }
         }
   std::printf("dielectric albedo table: %d entries (%d x %d x %d x 2), built in %.3f s; error against the reference at "
-              "%d off-grid points: max %.4f (%s), mean %.4f\n",
+              "%d off-grid points: max %.6f (%s), mean %.6f\n",
               t.entries(), DielectricAlbedoTable::default_n_mu, DielectricAlbedoTable::default_n_alpha,
               DielectricAlbedoTable::default_n_eta, t.build_seconds(), n, worst, at.c_str(), sum / n);
-  // A regression bound on the chosen resolution (measured: 0.011 max).
-  CHECK(worst < 0.02);
-  CHECK(sum / n < 0.004);
+  // The bound: the error measured at these points when the resolution was
+  // chosen (max 0.010577, mean 0.001928; docs/bxdfs.md), plus the reference's
+  // own uncertainty at the worst point, estimated as its change from 75025
+  // to 121393 lattice points (the next Fibonacci number), plus 1e-5 for the
+  // float rounding of the table across compilers. The table is
+  // deterministic, so a coarser or wrong table fails it; a correct one
+  // passes on any machine.
+  double ref_uncertainty =
+      std::abs(DielectricAlbedoTable::albedo(worst_at.side, worst_at.mu, worst_at.a, worst_at.eta, 121393) -
+               DielectricAlbedoTable::albedo(worst_at.side, worst_at.mu, worst_at.a, worst_at.eta, reference_points));
+  std::printf("  reference uncertainty at the worst point: %.2e\n", ref_uncertainty);
+  CHECK(worst <= 0.010577 + ref_uncertainty + 1e-5);
+  CHECK(sum / n <= 0.001928 + ref_uncertainty + 1e-5);
 }
 
 TEST_CASE("dielectric multiple scattering: a lossless rough interface scatters 1 from either side", "[bxdfs][dielectric][furnace][ms]") {

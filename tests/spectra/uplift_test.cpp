@@ -30,7 +30,7 @@ RGB reflected_rgb(const S& s) {
 
 struct ErrorStats {
   int n = 0;
-  double sum[3] = {0, 0, 0}, max[3] = {0, 0, 0};
+  double sum[3] = {0, 0, 0}, sum2 = 0, max[3] = {0, 0, 0};
   RGB worst;
   double worst_error = 0;
   void add(const RGB& target, const RGB& got) {
@@ -38,6 +38,7 @@ struct ErrorStats {
     for (int k = 0; k < 3; ++k) {
       double e = std::abs(double(got[k]) - double(target[k]));
       sum[k] += e;
+      sum2 += e * e;
       max[k] = std::max(max[k], e);
       if (e > worst_error) worst_error = e, worst = target;
     }
@@ -45,6 +46,12 @@ struct ErrorStats {
   double mean(int k) const { return sum[k] / n; }
   double max_all() const { return std::max({max[0], max[1], max[2]}); }
   double mean_all() const { return (sum[0] + sum[1] + sum[2]) / (3.0 * n); }
+  // The standard error of mean_all() as an estimate of the mean error over
+  // the whole cube (the 3n channel errors taken as independent draws).
+  double mean_all_sigma() const {
+    double m = mean_all(), N = 3.0 * n;
+    return std::sqrt(std::max(0.0, sum2 / N - m * m) / (N - 1));
+  }
   void print(const char* what) const {
     std::printf("%s (%d colours): mean |error| r %.2e g %.2e b %.2e, max r %.2e g %.2e b %.2e, worst at (%.6f, %.6f, %.6f)\n",
                 what, n, mean(0), mean(1), mean(2), max[0], max[1], max[2], double(worst.r), double(worst.g),
@@ -79,9 +86,19 @@ TEST_CASE("Albedo round trip RGB -> spectrum -> XYZ at 1 nm under D65 -> sRGB ov
   }
   st.print("albedo round trip");
   INFO("max error " << st.max_all() << " at (" << st.worst.r << ", " << st.worst.g << ", " << st.worst.b << ")");
-  // Measured at resolution 57: mean 7.0e-5, max 4.3e-4 (the goal was max <= 1e-3).
-  CHECK(st.mean_all() < 8e-5);
-  CHECK(st.max_all() < 5e-4);
+  // The mean error over the cube, estimated from these 10000 colours: at
+  // resolution 57 it measured 7.047e-5 with a standard error sigma = 3.7e-7
+  // (printed below). The bound is that measurement plus 4 sigma of the
+  // present estimate: another seed's estimate differs from it with sigma
+  // sqrt(2) sigma, so it fails with probability 2e-3 (one-sided, z = 2.83),
+  // and a table worse beyond the noise fails.
+  // The maximum over a sample is no estimate to bound tightly (a second
+  // sample exceeds the first's maximum with probability 1/2): it is held
+  // to the uplift's accuracy goal, 1e-3 (docs/spectral.md), which the
+  // measured 4.3e-4 meets.
+  std::printf("albedo round trip: mean %.4e +- %.1e\n", st.mean_all(), st.mean_all_sigma());
+  CHECK(st.mean_all() <= 7.047e-5 + 4 * st.mean_all_sigma());
+  CHECK(st.max_all() <= 1e-3);
 }
 
 TEST_CASE("Albedo round trip near black and white and on the faces of the RGB cube", "[spectra][uplift]") {
