@@ -41,6 +41,7 @@ step() {
     bad="$(sed -E 's/.* ([0-9]+) tests? failed out of.*/\1/' <<<"$summary")"
     total="$(sed -E 's/.*out of ([0-9]+).*/\1/' <<<"$summary")"
     skip="$(grep -cE '^[[:space:]]*[0-9]+ - .* \(Skipped\)$' "$log" || true)"
+    passed=$((passed + total - bad - skip))
     if [ "$skip" -gt 0 ] && [ "${PRISM_REQUIRE_SHARED:-}" = 1 ] && [ "${PRISM_REQUIRE_MPI:-}" = 1 ]; then
       echo "test.sh: $name: $skip tests skipped though ../shared and mpirun are both here (fails the run):"
       grep -E '^[[:space:]]*[0-9]+ - .* \(Skipped\)$' "$log"
@@ -49,7 +50,6 @@ step() {
     else
       skipped=$((skipped + skip))
     fi
-    passed=$((passed + total - bad - skip))
     failed=$((failed + bad))
     # ctest failing with every test passed (a build error after the summary,
     # say) still fails the step.
