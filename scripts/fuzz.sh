@@ -6,16 +6,19 @@
 # inputs land in build/fuzz/artifacts/; the corpus grows in build/fuzz/corpus/.
 #   scripts/fuzz.sh 900            # 15 minutes
 #   FUZZ_BUILD=build/my-fuzz scripts/fuzz.sh 60 -seed=1   # extra args go to libFuzzer
-# Needs clang and libFuzzer (Debian: clang, libclang-rt-14-dev).
+# Needs clang and libFuzzer (Debian: clang, libclang-rt-dev), which it installs
+# when missing (scripts/setup.sh). scripts/test.sh runs it under CI for 120 s
+# with FUZZ_STOP=1, so that anything found fails the run.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$root/scripts/setup.sh" clang libclang-rt-dev
 duration="${1:-60}"
 shift || true
 out="$(cd "$root" && mkdir -p "${FUZZ_BUILD:-build/fuzz}" && cd "${FUZZ_BUILD:-build/fuzz}" && pwd)"
 shared="$root/../shared/scenes"
 cxx="${CXX_FUZZ:-clang++}"
 if ! command -v "$cxx" >/dev/null; then
-  echo "fuzz.sh: $cxx not found (apt-get install clang libclang-rt-14-dev)" >&2
+  echo "fuzz.sh: $cxx not found (apt-get install clang libclang-rt-dev)" >&2
   exit 1
 fi
 
@@ -28,11 +31,16 @@ need=0
 for s in "${srcs[@]}"; do [ "$s" -nt "$bin" ] && need=1; done
 if [ $need = 1 ]; then
   echo "fuzz.sh: building $bin"
-  # The tinygltf/stb object rarely changes: build it once.
+  # The tinygltf/stb object rarely changes: build it once, in parallel with
+  # the target's own.
+  impl=0
   if [ ! -f "$out/tinygltf_impl.o" ] || [ "$root/fuzz/tinygltf_impl.cpp" -nt "$out/tinygltf_impl.o" ]; then
-    "$cxx" "${flags[@]}" -w -c "$root/fuzz/tinygltf_impl.cpp" -o "$out/tinygltf_impl.o"
+    "$cxx" "${flags[@]}" -w -c "$root/fuzz/tinygltf_impl.cpp" -o "$out/tinygltf_impl.o" &
+    impl=$!
   fi
-  "$cxx" "${flags[@]}" "$root/fuzz/gltf_fuzz.cpp" "$out/tinygltf_impl.o" -o "$bin" -pthread
+  "$cxx" "${flags[@]}" -c "$root/fuzz/gltf_fuzz.cpp" -o "$out/gltf_fuzz.o"
+  if [ $impl != 0 ]; then wait $impl; fi
+  "$cxx" "${flags[@]}" "$out/gltf_fuzz.o" "$out/tinygltf_impl.o" -o "$bin" -pthread
 fi
 
 # Seeds: the small single-file models (GLB and data-URI glTF), once.

@@ -191,6 +191,8 @@ TEST_CASE("read_environment reports bad files with prism Error naming the file",
     // The shared map cut at 300 kB: stb_image 2.27 alone never returns from this.
     std::string bytes = read_bytes(garden_path);
     hdr_error("garden_truncated.hdr", bytes.substr(0, 300000), "truncated pixel data (scanline 97 of 512)");
+  } else {
+    PRISM_TEST_FAIL_IF_SHARED_REQUIRED(garden_path << " not found");
   }
 
   // Texels that are not radiance: negative (PFM and EXR keep them), NaN.

@@ -12,11 +12,18 @@
 #   throw     (mpi_fault, beside pfm_compare) rank 1 throws while rank 0 waits
 #             for it: the job ends non-zero, naming rank 1
 #   film      (mpi_fault) rank 1's film has another size: rank 0 aborts the job
-# Exits 77 (skipped) when mpirun is missing.
+# Exits 77 (skipped) when mpirun or the shared model is missing, or 1 (failed)
+# instead when PRISM_REQUIRE_MPI=1 or PRISM_REQUIRE_SHARED=1 asks for it
+# (scripts/test.sh sets them when mpirun and ../shared are there).
 set -u
 case_name="$1"; bin="$2"; mpirun_sh="$3"; compare="$4"; tmp="$5/$1"; shared="$6"
 mkdir -p "$tmp"
-command -v mpirun >/dev/null 2>&1 || { echo "SKIPPED: mpirun not found (Debian: openmpi-bin)"; exit 77; }
+# skip REQUIRE_VARIABLE WHAT
+skip() {
+  if [ "${!1:-}" = 1 ]; then echo "FAILED: $2 though $1=1"; exit 1; fi
+  echo "SKIPPED: $2"; exit 77
+}
+command -v mpirun >/dev/null 2>&1 || skip PRISM_REQUIRE_MPI "mpirun not found (Debian: openmpi-bin)"
 size=(--width 48 --height 40 --spp 8 --seed 7 -q)
 
 single() { "$bin" "$@" --threads 2 >"$tmp/single.log" 2>&1 || { cat "$tmp/single.log"; echo "FAIL: single-process render"; exit 1; }; }
@@ -42,7 +49,7 @@ case "$case_name" in
     same "$tmp/single.pfm" "$tmp/mpi.pfm" "${bitwise[@]}" ;;
   gltf)
     model="$shared/scenes/Box/glTF-Binary/Box.glb"
-    [ -f "$model" ] || { echo "SKIPPED: $model not found"; exit 77; }
+    [ -f "$model" ] || skip PRISM_REQUIRE_SHARED "$model not found"
     single "$model" "${size[@]}" -o "$tmp/single.pfm"
     ranks 2 "$model" "${size[@]}" -o "$tmp/mpi.pfm"
     same "$tmp/single.pfm" "$tmp/mpi.pfm" ;;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 #include "prism/spectra/dispersion.hpp"
+#include "support/skip.hpp"
 
 namespace dispersion_test {
 
@@ -45,10 +46,7 @@ TEST_CASE("Sellmeier glasses give their catalogue n_d", "[spectra][dispersion][s
 
 TEST_CASE("Sellmeier glasses match the shared 5 nm table over 360-830 nm", "[spectra][dispersion][sellmeier][data]") {
   std::ifstream in(std::string(PRISM_SHARED_DIR) + "/data/dielectric_ior_sellmeier_5nm.csv");
-  if (!in) {
-    WARN("shared data not found; skipped");
-    return;
-  }
+  if (!in) PRISM_TEST_SKIP(PRISM_SHARED_DIR "/data/dielectric_ior_sellmeier_5nm.csv not found");
   std::string line;
   std::getline(in, line);  // wavelength_nm,n_N-BK7,n_fused_silica,n_N-SF11,n_N-BAF10,n_water_20C
   std::vector<std::string> names;
