@@ -806,7 +806,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     BVHBuildOptions bo;
     bo.threads = th;
     bo.split_budget = opt.split_budget;
-    bo.spatial_splits = opt.spatial_splits;
+    bo.spatial_splits = opt.spatial_splits ? spatial_split_builder : nullptr;
     for (int r = 0; r < std::max(3, opt.reps); ++r) {
       auto build_prism = [&] {
         double t0 = now_seconds();
@@ -970,7 +970,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     rotated.add_mesh_instance(rotated.add_mesh(mesh), xf);
     BVHBuildOptions bo;
     bo.split_budget = opt.split_budget;
-    bo.spatial_splits = opt.spatial_splits;
+    bo.spatial_splits = opt.spatial_splits ? spatial_split_builder : nullptr;
     rotated.build(bo);
     std::vector<BenchRay> world = incoherent;
     for (BenchRay& r : world) {

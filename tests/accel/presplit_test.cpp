@@ -13,6 +13,7 @@
 #include <cstring>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "prism/accel/sbvh.hpp"
@@ -574,12 +575,12 @@ TEST_CASE("a negative, non-finite or too large split budget is refused", "[accel
 }
 
 // ---------------------------------------------------------------- spatial splits
-// (accel/sbvh.hpp: BVHBuildOptions::spatial_splits)
+// (accel/sbvh.hpp: BVHBuildOptions::spatial_splits = spatial_split_builder)
 
 namespace {
 BVHBuildOptions with_spatial(float budget, float alpha = BVHBuildOptions{}.spatial_alpha, int threads = 0) {
   BVHBuildOptions o = with_budget(budget, threads);
-  o.spatial_splits = true;
+  o.spatial_splits = spatial_split_builder;
   o.spatial_alpha = alpha;
   return o;
 }
@@ -724,12 +725,16 @@ TEST_CASE("a negative or NaN spatial_alpha is refused", "[accel][sbvh]") {
   for (float alpha : {-1.0f, std::nanf(""), infinity}) CHECK_THROWS_AS(MeshAccel(m, with_spatial(0.3f, alpha)), Error);
   CHECK_NOTHROW(MeshAccel(TriangleMesh{}, with_spatial(0.3f)));
   CHECK_NOTHROW(MeshAccel(m, with_spatial(0.0f)));  // no budget: object splits only
-  // Without accel/sbvh.hpp in the program there is no builder to call.
-  detail::SpatialBuildFn saved = detail::spatial_build_hook();
-  detail::spatial_build_hook() = nullptr;
-  CHECK_THROWS_AS(MeshAccel(m, with_spatial(0.3f)), Error);
-  detail::spatial_build_hook() = saved;
   CHECK_NOTHROW(MeshAccel(m, with_spatial(0.3f)));
+}
+
+TEST_CASE("spatial splits are asked for with the builder itself", "[accel][sbvh]") {
+  // Off by default, and no flag can turn them on: only the builder, which
+  // accel/sbvh.hpp alone names (tests/accel/sbvh_opt_in.cpp: without it the
+  // request does not compile).
+  CHECK(BVHBuildOptions{}.spatial_splits == nullptr);
+  static_assert(!std::is_assignable_v<decltype(BVHBuildOptions::spatial_splits)&, bool>);
+  static_assert(std::is_same_v<decltype(BVHBuildOptions::spatial_splits), detail::SpatialBuildFn>);
 }
 
 TEST_CASE("BVH::from_binary_tree refuses what is not a tree", "[accel][sbvh]") {

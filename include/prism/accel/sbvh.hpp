@@ -33,21 +33,32 @@
 // where a scene is traced long enough: docs/performance.md has the
 // measurements.
 //
-// MeshAccel reaches the builder through detail::spatial_build_hook(), which
-// this header sets, so a program that asks for spatial splits includes it.
-// Neither scene_accel.hpp nor prism/prism.hpp does: every translation unit
+// An explicit, compile-time opt-in: a program that wants spatial splits
+// includes this header and passes its builder in the build options,
+//   BVHBuildOptions opt;
+//   opt.spatial_splits = prism::spatial_split_builder;
+//   scene.build(opt);  // Scene, SceneAccel or MeshAccel(mesh, opt)
+// MeshAccel calls the builder the options hold (a function pointer; null,
+// the default, builds with object splits only). Only this header names one,
+// so code that asks for spatial splits without it does not compile, and no
+// build can find the builder missing at run time. Neither
+// scene_accel.hpp nor prism/prism.hpp includes it: every translation unit
 // that builds a scene would compile the builder, about 15% more compile time
-// for a feature that is off by default. Without it, spatial_splits is
-// refused with an error that names this header.
+// for a feature that is off by default.
 #pragma once
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <future>
+#include <string>
+#include <type_traits>
 #include <vector>
 
-#include "prism/accel/bvh.hpp"
+#include "prism/accel/bvh/binned_sah_builder.hpp"  // BVH::from_binary_tree
+#include "prism/accel/bvh/build_support.hpp"
+#include "prism/accel/bvh/tree.hpp"
 #include "prism/accel/presplit.hpp"
+#include "prism/error.hpp"
 
 namespace prism {
 namespace detail {
@@ -574,13 +585,16 @@ SpatialBVH build_spatial_bvh(size_t n, Vertices&& vertices, const BVHBuildOption
   return b.build(n, start, keep_reference_boxes);
 }
 
-// MeshAccel's entry (spatial_build_hook): a mesh's positions and indices.
+// MeshAccel's entry (a SpatialBuildFn): a mesh's positions and indices.
 inline SpatialBVH build_spatial_mesh_bvh(size_t n, const Point3f* p, const uint32_t* idx, const BVHBuildOptions& opt,
                                          const SplitReferences* start) {
   return build_spatial_bvh(n, mesh_vertices(p, idx), opt, start);
 }
-// Set when this header is in the program, before main.
-inline const bool spatial_build_registered = (spatial_build_hook() = &build_spatial_mesh_bvh, true);
 
 }  // namespace detail
+
+// The spatial-split builder, for BVHBuildOptions::spatial_splits (see the
+// top of this header).
+inline constexpr detail::SpatialBuildFn spatial_split_builder = &detail::build_spatial_mesh_bvh;
+
 }  // namespace prism

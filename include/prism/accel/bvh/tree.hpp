@@ -25,8 +25,8 @@ struct SplitReferences;  // accel/presplit.hpp
 struct SpatialBVH;       // accel/presplit.hpp
 // A mesh builder with spatial splits (BVHBuildOptions::spatial_splits): n
 // triangles from positions and indices (three per triangle), the options,
-// and the pre-split references to start from. The one there is,
-// prism::spatial_split_builder, is in accel/sbvh.hpp.
+// and the pre-split references to start from (empty: none). The one there
+// is, prism::spatial_split_builder, is in accel/sbvh.hpp.
 using SpatialBuildFn = SpatialBVH (*)(size_t, const Point3f*, const uint32_t*, const BVHBuildOptions&,
                                       const SplitReferences*);
 }  // namespace detail
@@ -60,16 +60,17 @@ struct BVHBuildOptions {
   float split_budget = 0.3f;
   float split_threshold = 32;
   // Triangle meshes (MeshAccel): after pre-splitting, spatial splits inside
-  // the builder too (SBVH; the program includes prism/accel/sbvh.hpp, which
-  // holds the builder, or this is refused with prism::Error): at nodes where
-  // the best object split's two boxes overlap by more than spatial_alpha
-  // times the root's surface area, a plane across the node's box that cuts
-  // the references it crosses, where the SAH prefers it. It may add up to split_budget times
-  // the triangle count references on top of pre-splitting's. On
-  // traversal_bench's sliver scene the build takes about 5 times as long and
-  // rays trace 1.25 to 1.35 times as fast (docs/performance.md). Off by
-  // default.
-  bool spatial_splits = false;
+  // the builder too (SBVH): null (the default) for none, or the builder that
+  // makes them, prism::spatial_split_builder, which only
+  // prism/accel/sbvh.hpp declares: a program that asks for spatial splits
+  // includes it, or does not compile. At nodes where the best object split's
+  // two boxes overlap by more than spatial_alpha times the root's surface
+  // area, a plane across the node's box that cuts the references it crosses,
+  // where the SAH prefers it. It may add up to split_budget times the
+  // triangle count references on top of pre-splitting's. On traversal_bench's
+  // sliver scene the build takes about 5 times as long and rays trace 1.25
+  // to 1.35 times as fast (docs/performance.md).
+  detail::SpatialBuildFn spatial_splits = nullptr;
   float spatial_alpha = 1e-3f;
   // Keep the binary tree that the wide traversal layout is derived from
   // (BVH::nodes(), for tests and inspection). Otherwise it is freed once the
