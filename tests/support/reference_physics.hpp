@@ -12,6 +12,7 @@
 #pragma once
 #include <algorithm>
 #include <array>
+#include <vector>
 #include <cmath>
 #include <complex>
 #include <functional>
@@ -280,7 +281,9 @@ inline double dielectric_albedo(double theta_o, double alpha, double eta, int n_
     };
     double th_vis = std::min(pi / 2, delta + pi / 2);  // wo.h > 0 below it
     // Breakpoints: where a predicate changes along theta (bisection to 1e-13).
-    std::array<double, 8> cuts{};
+    // A vector, not a std::array: GCC 12's -Warray-bounds misreads std::sort's
+    // insertion-sort threshold (16) against an 8-element array at -O2.
+    std::vector<double> cuts(8, 0.0);
     int n_cuts = 0;
     cuts[size_t(n_cuts++)] = 0;
     for (auto pred : {std::function<bool(double)>(reflected_up), std::function<bool(double)>(transmits)}) {
