@@ -85,9 +85,11 @@ suite() {
 
 step suite suite "$@"
 if [ $ci = 1 ]; then
-  # The glTF loader's tests, the image readers' and the ray queries' (portable
-  # and for this machine's instruction set; see scripts/sanitize.sh).
-  step sanitize bash scripts/sanitize.sh gltf io accel accel_native
+  # The glTF loader's tests and the image readers' (scripts/sanitize.sh). The
+  # ray queries' (accel, accel_native) are left out of CI until their
+  # brute-force tests are cut to fit: under ASan at -O1 they would take most
+  # of CI's time; `scripts/sanitize.sh accel accel_native` runs them by hand.
+  step sanitize bash scripts/sanitize.sh gltf io
   # Stopping at the first crash, leak or timeout, which fails the step.
   step fuzz env FUZZ_STOP=1 bash scripts/fuzz.sh "${FUZZ_SECONDS:-120}" -print_funcs=0
 fi
