@@ -134,7 +134,6 @@ ensure_baseline() {
 }
 
 killed=0 survived=0 broken=0 total=0
-summary=""
 start=$SECONDS
 while IFS= read -r line; do
   [ -z "$line" ] && continue
@@ -171,7 +170,6 @@ while IFS= read -r line; do
   msg=$(printf '%-24s %-9s %4d s%s' "$id" "${status%% (*}" $((SECONDS - t0)) "${by:+  by$by}")
   [ "${status%% (*}" = "$status" ] || msg="$msg  ${status#* (}"
   echo "$msg"
-  summary+="$msg"$'\n'
 done <<<"$mutants"
 echo
 echo "score: $killed / $total killed, $survived survived, $broken not applied or not built ($((SECONDS - start)) s)"

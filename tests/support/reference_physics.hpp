@@ -261,10 +261,11 @@ inline double conductor_average_albedo(double alpha) {
 // so that every piece has a smooth integrand.
 inline double dielectric_albedo(double theta_o, double alpha, double eta, int n_phi = 128, int panels = 8) {
   Dir wo{std::sin(theta_o), 0, std::cos(theta_o)};
-  auto xi_of = [&](double th) {
-    if (th >= pi / 2) return 1.0;
-    double t2 = std::pow(std::tan(th), 2);
-    return t2 / (alpha * alpha + t2);
+  // q = 1 - xi = alpha^2 cos^2 / (alpha^2 cos^2 + sin^2), computed without
+  // cancellation: near the horizon xi rounds to 1 and would lose theta.
+  auto q_of = [&](double th) {
+    double a2c2 = alpha * alpha * std::cos(th) * std::cos(th);
+    return th >= pi / 2 ? 0.0 : a2c2 / (a2c2 + std::sin(th) * std::sin(th));
   };
   double sum = 0;
   for (int j = 0; j < n_phi; ++j) {
@@ -301,13 +302,13 @@ inline double dielectric_albedo(double theta_o, double alpha, double eta, int n_
     cuts[size_t(n_cuts++)] = th_vis;
     std::sort(cuts.begin(), cuts.begin() + n_cuts);
     for (int c = 0; c + 1 < n_cuts; ++c) {
-      double x0 = xi_of(cuts[size_t(c)]), x1 = xi_of(cuts[size_t(c + 1)]);
-      if (!(x1 > x0)) continue;
+      double q0 = q_of(cuts[size_t(c)]), q1 = q_of(cuts[size_t(c + 1)]);
+      if (!(q0 > q1)) continue;
       auto g = [&](double t) {
-        // Points cluster at both ends (t -> x0 + (x1 - x0)(3t^2 - 2t^3)).
+        // Points cluster at both ends (t -> q0 - (q0 - q1)(3t^2 - 2t^3)).
         double s = t * t * (3 - 2 * t), ds = 6 * t * (1 - t);
-        double xi = x0 + (x1 - x0) * s;
-        double th = std::atan(alpha * std::sqrt(xi / (1 - xi)));
+        double q = q0 - (q0 - q1) * s;
+        double th = std::atan2(alpha * std::sqrt(1 - q), std::sqrt(q));
         Dir h = normal(th);
         double cwh = dot(wo, h);
         if (!(cwh > 0)) return 0.0;
@@ -320,7 +321,7 @@ inline double dielectric_albedo(double theta_o, double alpha, double eta, int n_
           Dir wt{-wo.x / eta + a * h.x, -wo.y / eta + a * h.y, -wo.z / eta + a * h.z};
           if (wt.z < 0) v += (1 - F) * smith_G2(alpha, alpha, wo, wt);
         }
-        return (x1 - x0) * ds * v * cwh / (wo.z * h.z);
+        return (q0 - q1) * ds * v * cwh / (wo.z * h.z);
       };
       sum += integrate(g, 0, 1, panels);
     }
