@@ -24,11 +24,11 @@ else
 fi
 corpus="$build/tests/tmp/gltf_bad"
 rm -f "$corpus/prism_verdicts.tsv"
-if [[ -x "$build/tests/prism_test_gltf" ]]; then
-  "$build/tests/prism_test_gltf" "[bad_input]" > /dev/null
+if [[ -x "$build/tests/prism_test_gltf_input" ]]; then
+  "$build/tests/prism_test_gltf_input" "[bad_input]" > /dev/null
   node "$tool/validate.js" --corpus "$corpus" "$corpus/prism_verdicts.tsv"
 else
-  echo "validate_gltf: $build/tests/prism_test_gltf is missing (cmake --build $build --target prism_test_gltf)"
+  echo "validate_gltf: $build/tests/prism_test_gltf_input is missing (cmake --build $build --target prism_test_gltf_input)"
   status=1
 fi
 exit $status

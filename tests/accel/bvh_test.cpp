@@ -3,6 +3,7 @@
 // the one found by testing every triangle with intersect_triangle; occluded()
 // agrees with intersect(); degenerate inputs build and stay correct; the build
 // does not depend on the thread count.
+#include "support/accel_variant.hpp"
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -325,7 +326,7 @@ TEST_CASE("BVH closest hit equals brute force on random triangles", "[accel][bvh
   std::vector<int> seen(s.size(), 0);
   for (uint32_t p : bvh.prims()) ++seen[p];
   CHECK(std::count(seen.begin(), seen.end(), 1) == long(s.size()));
-  report(compare(s, bvh, &mesh_accel, 100000, rng));
+  report(compare(s, bvh, &mesh_accel, test::variant_count(100000), rng));
 }
 
 TEST_CASE("BVH leaves cover their primitives and nodes nest", "[accel][bvh]") {
@@ -573,7 +574,7 @@ TEST_CASE("BVH build is deterministic across thread counts", "[accel][bvh]") {
     Vector3f e{std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2)), std::exp2(uniform(rng, -4, 2))};
     x = Bounds3f(c - e, c + e);
   }
-  for (int block : {1, 3, 4}) {
+  for (int block : test::variant_sweep({1, 3, 4}, {3})) {
     auto build = [&](int threads) {
       BVHBuildOptions opt = keep_tree();
       opt.threads = threads;

@@ -11,6 +11,7 @@
 // whose exponents differ by at most 60 needs at most 85 bits, and its product
 // with a float at most 109. Slab distances are compared as fractions, by
 // cross-multiplying, so no division rounds.
+#include "support/accel_variant.hpp"
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -254,7 +255,7 @@ TEST_CASE("the wide box test enters every box the exact ray meets", "[accel][bvh
   const Float scales[] = {1, 1e-30f, 1e30f, 3e-6f, 7e5f, 1e12f, 1e-39f, 1e-43f, 2e-38f};
   Tally t;
   for (Float s : scales)
-    for (int it = 0; it < 1500; ++it) check_node(rng, s, t);
+    for (int it = 0; it < test::variant_count(1500); ++it) check_node(rng, s, t);
   INFO(t.rays << " rays (" << t.fast_rays << " on the directed-FMA path), " << t.lanes_hit << " lanes met exactly, "
                << t.lanes_missed_clearly << " clearly missed; culled " << t.culled << ", late " << t.late
                << ", loose " << t.loose << ", set-ups differing " << t.mismatched << "; first: " << t.first);

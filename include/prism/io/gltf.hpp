@@ -1411,7 +1411,9 @@ GltfScene<S, Set> load_gltf(const std::string& path, const GltfOptions& opt = {}
   if (!(opt.shutter >= 0) || !std::isfinite(opt.shutter))
     throw Error(path + ": the shutter interval must be finite and non-negative, got " + std::to_string(opt.shutter));
   try {
-    return gltf_detail::Loader<S, Set>(path, opt).load();
+    GltfScene<S, Set> out = gltf_detail::Loader<S, Set>(path, opt).load();
+    out.scene.set_source(path);
+    return out;
   } catch (const Error&) {
     throw;
   } catch (const std::bad_alloc&) {

@@ -91,8 +91,26 @@ class Scene {
   // comparisons; takes effect at build().
   void set_triangle_solid_angle_sampling(bool on) { m_triangle_solid_angle = on; }
 
+  // The file (or other source) the scene came from, e.g. set by load_gltf:
+  // build() starts its error messages with it, so that an error found only
+  // when building (a light whose power overflows, say) still names the file.
+  void set_source(std::string source) { m_source = std::move(source); }
+  const std::string& source() const { return m_source; }
+
   // Validates the scene and builds lights and the acceleration structure.
+  // Throws prism::Error naming the object and what is wrong (after source()
+  // when set); the scene is then not usable until a build() succeeds.
   void build(const BVHBuildOptions& opt = {}) {
+    if (m_source.empty()) return build_unnamed(opt);
+    try {
+      build_unnamed(opt);
+    } catch (const Error& e) {
+      throw Error(m_source + ": " + e.what());
+    }
+  }
+
+ private:
+  void build_unnamed(const BVHBuildOptions& opt) {
     const auto& meshes = m_accel.meshes();
     for (size_t m = 0; m < meshes.size(); ++m) validate_mesh(meshes[m], m);
     for (size_t i = 0; i < m_accel.spheres().size(); ++i) {
@@ -221,6 +239,7 @@ class Scene {
     }
   }
 
+ public:
   // The closest surface along the ray. Surfaces whose material may be
   // transparent (glTF alphaMode mask or blend: bxdf_traits::opacity) are
   // passed through where they are not there; a blended surface is kept with
@@ -403,6 +422,7 @@ class Scene {
   SceneAccel m_accel;
   std::vector<material_type> m_materials;
   std::vector<InstanceInfo> m_info;
+  std::string m_source;                   // set_source(): prefixes build()'s errors
   std::vector<light_type> m_extra_lights;  // as added; copied into m_lights by build()
   std::vector<light_type> m_lights;        // area lights first, then the others
   size_t m_area_light_count = 0;

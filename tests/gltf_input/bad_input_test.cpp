@@ -322,6 +322,18 @@ TEST_CASE("bad input: NaN and Inf positions", "[gltf][bad_input]") {
   require_error(e.write("transform.gltf"), {"nodes[1]", "not finite"});
 }
 
+// Errors found only when building (here a light whose power overflows float:
+// a finite node scale of 1e20 makes each emitting triangle's area about 1e40)
+// still name the file: load_gltf gives the scene its path (Scene::set_source).
+// The fuzzer found this one (a light of power inf, the message without a path).
+TEST_CASE("bad input: an emitting mesh whose power overflows", "[gltf][bad_input]") {
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto e = box("power_overflow");
+  e.gltf["nodes"][1]["scale"] = {1e20, 1e20, 1e20};
+  e.gltf["materials"][0]["emissiveFactor"] = {1, 1, 1};
+  require_error(e.write(), {"light", "power inf"});
+}
+
 TEST_CASE("bad input: missing external files", "[gltf][bad_input]") {
   if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
   auto e = box_textured("missing_files");
