@@ -82,47 +82,6 @@ struct GltfScene {
 
 namespace gltf_detail {
 
-using Mat4d = std::array<double, 16>;  // row-major
-
-inline Mat4d identity() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
-inline Mat4d mul(const Mat4d& a, const Mat4d& b) {
-  Mat4d r{};
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) {
-      double s = 0;
-      for (int k = 0; k < 4; ++k) s += a[size_t(4 * i + k)] * b[size_t(4 * k + j)];
-      r[size_t(4 * i + j)] = s;
-    }
-  return r;
-}
-// T * R * S from translation, unit quaternion (x, y, z, w) and scale.
-inline Mat4d trs(const std::array<double, 3>& t, std::array<double, 4> q, const std::array<double, 3>& s) {
-  double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  if (n > 0) for (auto& c : q) c /= n;
-  double x = q[0], y = q[1], z = q[2], w = q[3];
-  double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
-                 2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-                 2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
-  Mat4d m = identity();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) m[size_t(4 * i + j)] = r[3 * i + j] * s[size_t(j)];
-    m[size_t(4 * i + 3)] = t[size_t(i)];
-  }
-  return m;
-}
-inline Transform to_transform(const Mat4d& d) {
-  Matrix4 m;
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) m.m[size_t(i)][size_t(j)] = Float(d[size_t(4 * i + j)]);
-  return Transform(m);
-}
-inline std::array<double, 3> apply_point(const Mat4d& m, const std::array<double, 3>& p) {
-  std::array<double, 3> r{};
-  for (int i = 0; i < 3; ++i)
-    r[size_t(i)] = m[size_t(4 * i)] * p[0] + m[size_t(4 * i + 1)] * p[1] + m[size_t(4 * i + 2)] * p[2] + m[size_t(4 * i + 3)];
-  return r;
-}
-
 inline std::string idx(const char* array, int i) { return std::string(array) + "[" + std::to_string(i) + "]"; }
 
 // The extensions this loader honours (others in extensionsRequired are an
@@ -197,7 +156,7 @@ class Loader {
     for (size_t i = 0; i < sc.nodes.size(); ++i) {
       int n = sc.nodes[i];
       check_index(n, m_model.nodes.size(), idx("scenes", scene) + ".nodes[" + std::to_string(i) + "]", "node");
-      visit(n, identity(), identity(), on_path, 0);
+      visit(n, Matrix4d{}, Matrix4d{}, on_path, 0);
     }
     return std::move(m_out);
   }
@@ -1142,16 +1101,16 @@ class Loader {
     return r;
   }
 
-  Mat4d local_matrix(int n, double time) const {
+  Matrix4d local_matrix(int n, double time) const {
     const auto& node = m_model.nodes[size_t(n)];
     std::string where = idx("nodes", n);
     auto it = m_channels.find(n);
     if (!node.matrix.empty() && it == m_channels.end()) {
       if (node.matrix.size() != 16) fail(where + ".matrix", "must have 16 numbers");
-      Mat4d m;
+      Matrix4d m;
       for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) m[size_t(4 * i + j)] = node.matrix[size_t(4 * j + i)];  // column-major
-      for (double v : m) check_finite_number(v, where + ".matrix");
+        for (int j = 0; j < 4; ++j) m.m[size_t(4 * i + j)] = node.matrix[size_t(4 * j + i)];  // column-major
+      for (double v : m.m) check_finite_number(v, where + ".matrix");
       return m;
     }
     std::array<double, 3> t{0, 0, 0}, s{1, 1, 1};
@@ -1173,21 +1132,20 @@ class Loader {
         else if (ch.path == "rotation") copy(sample_channel(ch, 4, time), q, "rotation (animated)");
         else copy(sample_channel(ch, 3, time), s, "scale (animated)");
       }
-    return trs(t, q, s);
+    return Matrix4d::trs(t, q, s);
   }
 
   // parent and parent_end: the parent's world transform when the shutter
   // opens and when it closes (the same without motion blur).
-  void visit(int n, const Mat4d& parent, const Mat4d& parent_end, std::vector<uint8_t>& on_path, int depth) {
+  void visit(int n, const Matrix4d& parent, const Matrix4d& parent_end, std::vector<uint8_t>& on_path, int depth) {
     std::string where = idx("nodes", n);
     if (on_path[size_t(n)]) fail(where, "is its own ancestor (the node hierarchy has a cycle)");
     if (depth > 4096) fail(where, "the node hierarchy is deeper than 4096 levels");
     on_path[size_t(n)] = 1;
     const auto& node = m_model.nodes[size_t(n)];
-    Mat4d world = mul(parent, local_matrix(n, m_opt.time));
-    Mat4d world_end = m_opt.shutter > 0 && !m_channels.empty()
-                          ? mul(parent_end, local_matrix(n, m_opt.time + m_opt.shutter))
-                          : world;
+    Matrix4d world = parent * local_matrix(n, m_opt.time);
+    Matrix4d world_end =
+        m_opt.shutter > 0 && !m_channels.empty() ? parent_end * local_matrix(n, m_opt.time + m_opt.shutter) : world;
     if (node.mesh != -1) {
       check_index(node.mesh, m_model.meshes.size(), where + ".mesh", "mesh");
       place_mesh(n, node, world, world_end);
@@ -1209,8 +1167,8 @@ class Loader {
     on_path[size_t(n)] = 0;
   }
 
-  void place_mesh(int n, const tinygltf::Node& node, const Mat4d& world, const Mat4d& world_end) {
-    std::vector<Mat4d> transforms, transforms_end;
+  void place_mesh(int n, const tinygltf::Node& node, const Matrix4d& world, const Matrix4d& world_end) {
+    std::vector<Matrix4d> transforms, transforms_end;
     if (const auto* e = ext(node.extensions, "EXT_mesh_gpu_instancing")) {
       std::string ew = idx("nodes", n) + ".extensions.EXT_mesh_gpu_instancing.attributes";
       const tinygltf::Value* attrs = e->Has("attributes") ? &e->Get("attributes") : nullptr;
@@ -1234,8 +1192,8 @@ class Loader {
         if (!t.empty()) ti = {t[3 * i], t[3 * i + 1], t[3 * i + 2]};
         if (!r.empty()) qi = {r[4 * i], r[4 * i + 1], r[4 * i + 2], r[4 * i + 3]};
         if (!s.empty()) si = {s[3 * i], s[3 * i + 1], s[3 * i + 2]};
-        transforms.push_back(mul(world, trs(ti, qi, si)));
-        transforms_end.push_back(mul(world_end, trs(ti, qi, si)));
+        transforms.push_back(world * Matrix4d::trs(ti, qi, si));
+        transforms_end.push_back(world_end * Matrix4d::trs(ti, qi, si));
       }
       if (!have) {
         transforms.push_back(world);
@@ -1247,19 +1205,19 @@ class Loader {
     }
     const auto& parts = mesh_parts(node.mesh);
     for (size_t i = 0; i < transforms.size(); ++i) {
-      const Mat4d& m = transforms[i];
-      for (double v : m)
+      const Matrix4d& m = transforms[i];
+      for (double v : m.m)
         if (!std::isfinite(v)) fail(idx("nodes", n), "world transform is not finite");
-      for (double v : transforms_end[i])
+      for (double v : transforms_end[i].m)
         if (!std::isfinite(v)) fail(idx("nodes", n), "world transform at the shutter's close is not finite");
-      Transform xf = to_transform(m);
+      Transform xf(m.to_float());
       if (!xf.invertible()) {
         warn(idx("nodes", n) + ": singular transform (zero scale): instance skipped");
         continue;
       }
       std::optional<AnimatedTransform> motion;
       if (transforms_end[i] != m) {
-        Transform xf_end = to_transform(transforms_end[i]);
+        Transform xf_end(transforms_end[i].to_float());
         if (!xf_end.invertible()) {
           warn(idx("nodes", n) + ": singular transform at the shutter's close: motion blur ignored");
         } else {
@@ -1301,22 +1259,22 @@ class Loader {
     return b;
   }
 
-  void place_camera(int c, const Mat4d& world) {
+  void place_camera(int c, const Matrix4d& world) {
     const auto& cam = m_model.cameras[size_t(c)];
     std::string where = idx("cameras", c);
     GltfCamera out;
     out.name = cam.name.empty() ? where : cam.name;
     // glTF cameras look down -z; prism's camera space looks down +z.
-    Mat4d flip = identity();
-    flip[10] = -1;
+    Matrix4d flip;
+    flip.m[10] = -1;
     // Remove the node's scale: a camera's frame is rigid.
-    Mat4d w = world;
-    for (int j = 0; j < 3; ++j) {
-      double l = std::sqrt(w[size_t(j)] * w[size_t(j)] + w[size_t(4 + j)] * w[size_t(4 + j)] + w[size_t(8 + j)] * w[size_t(8 + j)]);
+    Matrix4d w = world;
+    for (size_t j = 0; j < 3; ++j) {
+      double l = std::sqrt(w.m[j] * w.m[j] + w.m[4 + j] * w.m[4 + j] + w.m[8 + j] * w.m[8 + j]);
       if (!(l > 0)) fail(where, "its node's transform is singular");
-      for (int i = 0; i < 3; ++i) w[size_t(4 * i + j)] /= l;
+      for (size_t i = 0; i < 3; ++i) w.m[4 * i + j] /= l;
     }
-    out.camera_to_world = to_transform(mul(w, flip));
+    out.camera_to_world = Transform((w * flip).to_float());
     if (cam.type == "perspective") {
       out.yfov = Float(cam.perspective.yfov);
       out.aspect_ratio = Float(cam.perspective.aspectRatio);
@@ -1333,7 +1291,7 @@ class Loader {
     m_out.cameras.push_back(out);
   }
 
-  void place_light(int l, const Mat4d& world) {
+  void place_light(int l, const Matrix4d& world) {
     const auto& g = m_model.lights[size_t(l)];
     std::string where = idx("extensions.KHR_lights_punctual.lights", l);
     RGB color(1);
@@ -1346,8 +1304,8 @@ class Loader {
     // Photometric to radiometric: candela (point, spot) and lux (directional)
     // over 683 lm/W; an RGB of (1, 1, 1) has luminance Y = 1 (docs/gltf.md).
     Float scale = Float(g.intensity / 683.0);
-    auto o = apply_point(world, {0, 0, 0});
-    auto z = apply_point(world, {0, 0, -1});
+    auto o = world.apply_point({0, 0, 0});
+    auto z = world.apply_point({0, 0, -1});
     Point3f p{Float(o[0]), Float(o[1]), Float(o[2])};
     Vector3f d{Float(z[0] - o[0]), Float(z[1] - o[1]), Float(z[2] - o[2])};
     try {
