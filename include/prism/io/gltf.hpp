@@ -28,10 +28,10 @@
 #include <thread>
 #include <tuple>
 #include <vector>
-#include <stb/stb_image.h>
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 #include "prism/prism.hpp"
+#include "prism/io/image_io.hpp"
 
 namespace prism {
 
@@ -402,36 +402,18 @@ class Loader {
         }
         errors[i] = image_format_problem(bytes);
         if (!errors[i].empty()) continue;
-        int len = int(bytes.size()), w = 0, h = 0, c = 0;
-        if (!stbi_info_from_memory(bytes.data(), len, &w, &h, &c)) {
-          errors[i] = std::string("cannot decode: ") + stbi_failure_reason();
-          continue;
-        }
-        if (double(w) * double(h) > double(1 << 28)) {
-          errors[i] = std::to_string(w) + " x " + std::to_string(h) + " pixels is too large (at most 2^28 pixels)";
-          continue;
-        }
         try {
-          if (stbi_is_16_bit_from_memory(bytes.data(), len)) {
-            stbi_us* px = stbi_load_16_from_memory(bytes.data(), len, &w, &h, &c, 0);
-            if (!px) {
-              errors[i] = std::string("cannot decode: ") + stbi_failure_reason();
-              continue;
-            }
-            std::vector<uint16_t> data(px, px + size_t(w) * size_t(h) * size_t(c));
-            stbi_image_free(px);
-            auto img = std::make_shared<TextureImage>(TextureImage::from_u16(w, h, c, std::move(data)));
+          DecodedImage px = decode_image(bytes.data(), bytes.size(), {.max_pixels_log2 = 28});
+          if (!px.error.empty()) {
+            errors[i] = px.over_limit ? px.error : "cannot decode: " + px.error;
+            continue;
+          }
+          if (!px.u16.empty()) {
+            auto img = std::make_shared<TextureImage>(TextureImage::from_u16(px.width, px.height, px.channels, std::move(px.u16)));
             img->shrink_to_smallest();
             m_images[i] = img;
           } else {
-            stbi_uc* px = stbi_load_from_memory(bytes.data(), len, &w, &h, &c, 0);
-            if (!px) {
-              errors[i] = std::string("cannot decode: ") + stbi_failure_reason();
-              continue;
-            }
-            std::vector<uint8_t> data(px, px + size_t(w) * size_t(h) * size_t(c));
-            stbi_image_free(px);
-            m_images[i] = std::make_shared<TextureImage>(TextureImage::from_u8(w, h, c, std::move(data)));
+            m_images[i] = std::make_shared<TextureImage>(TextureImage::from_u8(px.width, px.height, px.channels, std::move(px.u8)));
           }
         } catch (const std::exception& e) {
           errors[i] = e.what();
