@@ -24,6 +24,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
+#include <prism/prism.hpp>
 
 namespace volume_test {
 
