@@ -10,7 +10,9 @@
 // nodes, and EXT_mesh_gpu_instancing, become instances (a transform each).
 // Materials: MetalRoughMaterial with its textures; emission (with
 // KHR_materials_emissive_strength and emissiveTexture) becomes the
-// instance's AreaEmission. Images are decoded once each, in parallel, and
+// instance's AreaEmission; KHR_materials_unlit surfaces emit their base
+// colour and reflect nothing; KHR_materials_variants through
+// GltfOptions::variant. Images are decoded once each, in parallel, and
 // shared. Errors throw prism::Error naming the file, the element
 // (`meshes[3].primitives[0].attributes.POSITION`) and what is wrong.
 //

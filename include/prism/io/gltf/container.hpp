@@ -5,6 +5,7 @@
 // JSON that run before tinygltf parses it, and the extension checks.
 #pragma once
 #include <cctype>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -57,12 +58,18 @@ inline double number(const tinygltf::Value* v, const char* key, double fallback)
   return x.IsNumber() ? x.GetNumberAsDouble() : fallback;
 }
 
+// A JSON number used as an index: -1 (out of every range) unless it is an
+// integer that fits in an int.
+inline int as_index(double v) {
+  return v >= 0 && v <= 2147483647.0 && v == std::floor(v) ? int(v) : -1;
+}
+
 // The extensions this loader honours (others in extensionsRequired are an
 // error; in extensionsUsed, one warning each).
 inline bool supported_extension(const std::string& e) {
   static const char* known[] = {"KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular",
                                 "KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_dispersion",
-                                "KHR_texture_transform",
+                                "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_transform",
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};
   for (const char* k : known)
     if (e == k) return true;
@@ -274,12 +281,22 @@ inline void load_model(Document& doc, PendingImages& pending) {
 
 // extensionsRequired that prism does not support fail; extensionsUsed warn.
 inline void check_extensions(Document& doc) {
-  for (const auto& e : doc.model.extensionsRequired)
+  for (const auto& e : doc.model.extensionsRequired) {
+    if (e == "KHR_texture_basisu")  // no KTX2 decoder in Debian; optional use falls back to "source"
+      doc.fail("extensionsRequired",
+               "extension 'KHR_texture_basisu' is required, but prism cannot decode KTX2 (Basis Universal) images; "
+               "a file that gives PNG or JPEG fallbacks in each texture's 'source' loads when the extension is only "
+               "in extensionsUsed");
     if (!supported_extension(e) && !harmless_extension(e))
       doc.fail("extensionsRequired", "extension '" + e + "' is required but prism does not support it");
-  for (const auto& e : doc.model.extensionsUsed)
-    if (!supported_extension(e) && !harmless_extension(e))
+  }
+  for (const auto& e : doc.model.extensionsUsed) {
+    if (e == "KHR_texture_basisu")
+      doc.warn("extension 'KHR_texture_basisu': KTX2 images are not decoded; textures use their PNG or JPEG "
+               "fallback ('source') where they give one");
+    else if (!supported_extension(e) && !harmless_extension(e))
       doc.warn("extension '" + e + "' is used by the file but ignored by prism");
+  }
 }
 
 }  // namespace prism::gltf_detail

@@ -2,8 +2,9 @@
 // MetalRoughMaterial: the metallic-roughness factors and textures, alpha
 // modes, normal maps, KHR_materials_ior, _specular, _transmission, _volume
 // and _dispersion; emission (KHR_materials_emissive_strength,
-// emissiveTexture) as AreaEmission; textures with their samplers (wrap and
-// filter modes) and KHR_texture_transform.
+// emissiveTexture) as AreaEmission; KHR_materials_unlit as a black surface
+// that emits its base colour; textures with their samplers (wrap and filter
+// modes) and KHR_texture_transform.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -148,8 +149,33 @@ class Materials {
         }
       }
       if (any) mat.textures = textures;
+      if (unlit(i)) {
+        // KHR_materials_unlit: the surface shows its base colour and takes no
+        // light. It reflects and transmits nothing (no lobe: a path ends
+        // there) and emits the base colour (emission()); alpha, its mode and
+        // cutoff, and the base colour texture's alpha still cut it out.
+        MetalRoughMaterial black;
+        black.name = mat.name;
+        black.base_color = RGB(0);
+        black.metallic = 0;
+        black.specular = 0;
+        black.alpha = mat.alpha;
+        black.alpha_mode = mat.alpha_mode;
+        black.alpha_cutoff = mat.alpha_cutoff;
+        if (textures->base_color) {
+          auto alpha_only = std::make_shared<MetalRoughTextures>();
+          alpha_only->base_color = textures->base_color;
+          black.textures = alpha_only;
+        }
+        return black;
+      }
     }
     return mat;
+  }
+
+  // Whether materials[i] is KHR_materials_unlit (never the default material).
+  bool unlit(int i) const {
+    return i >= 0 && ext(m_doc.model.materials[size_t(i)].extensions, "KHR_materials_unlit") != nullptr;
   }
 
   // The emission of materials[i] (none for -1), built once.
@@ -160,6 +186,23 @@ class Materials {
     const auto& g = m_doc.model.materials[size_t(i)];
     std::string where = idx("materials", i);
     std::optional<AreaEmission> out;
+    if (unlit(i)) {
+      // An unlit material emits its base colour (factor times texture, with
+      // no emissive factor or strength: the extension ignores them), from
+      // both sides when the material is double-sided. Vertex colours
+      // (COLOR_0) do not tint area emission and are ignored here.
+      const auto& bc = g.pbrMetallicRoughness.baseColorFactor;
+      if (bc.size() != 4) m_doc.fail(where + ".pbrMetallicRoughness.baseColorFactor", "must have 4 numbers");
+      AreaEmission e;
+      e.radiance = RGB(Float(std::max(bc[0], 0.0)), Float(std::max(bc[1], 0.0)), Float(std::max(bc[2], 0.0)));
+      e.two_sided = g.doubleSided;
+      if (auto t = texture(ref(g.pbrMetallicRoughness.baseColorTexture), true,
+                           where + ".pbrMetallicRoughness.baseColorTexture"))
+        e.texture = std::make_shared<const ImageTexture>(std::move(*t));
+      if (e.texture || bc[0] > 0 || bc[1] > 0 || bc[2] > 0) out = e;
+      m_emission_cache.emplace(i, out);
+      return out;
+    }
     std::array<double, 3> f{0, 0, 0};
     if (!g.emissiveFactor.empty()) {
       if (g.emissiveFactor.size() != 3) m_doc.fail(where + ".emissiveFactor", "must have 3 numbers");

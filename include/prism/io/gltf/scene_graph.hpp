@@ -51,6 +51,10 @@ struct GltfOptions {
   // (MetalRoughMaterial::multiple_scattering; docs/bxdfs.md). Off by default:
   // glTF's reference viewers render single scattering.
   bool multiple_scattering = false;
+  // KHR_materials_variants: the name of the material variant to load; empty:
+  // the file's default materials. A name the file does not define is an
+  // error that lists the names it does.
+  std::string variant;
 };
 
 // A camera of the file, placed by its node. camera_to_world maps prism's
@@ -80,6 +84,8 @@ struct GltfScene {
   size_t emissive_instances = 0;
   size_t moving_instances = 0;   // instances that move during the shutter (GltfOptions::shutter)
   size_t images = 0, image_bytes = 0;
+  std::vector<std::string> variants;  // KHR_materials_variants: the file's variant names, in order
+  std::string variant;               // the variant loaded (GltfOptions::variant); empty: the defaults
   bool has_lights() const { return punctual_lights + emissive_instances > 0; }
 };
 
@@ -95,6 +101,7 @@ class Loader {
   GltfScene<S, Set> load() {
     load_model(m_doc, m_pending);
     check_extensions(m_doc);
+    read_variants();
     m_images = decode_images(m_doc.model, m_pending);
     m_out.images = m_images.count;
     m_out.image_bytes = m_images.bytes;
@@ -173,9 +180,73 @@ class Loader {
       }
       if (prim.material != -1)
         m_doc.check_index(prim.material, m_doc.model.materials.size(), where + ".material", "material");
-      parts.push_back({mesh_id, material(prim.material), prim.material});
+      int mat = variant_material(prim, where);
+      parts.push_back({mesh_id, material(mat), mat});
     }
     return m_mesh_cache.emplace(m, std::move(parts)).first->second;
+  }
+
+  // KHR_materials_variants: the file's variant names, and the index of the
+  // one GltfOptions::variant asks for (-1: the default materials).
+  void read_variants() {
+    const char* key = "KHR_materials_variants";
+    const std::string where = "extensions.KHR_materials_variants.variants";
+    if (const auto* e = ext(m_doc.model.extensions, key)) {
+      if (e->Has("variants")) {
+        const auto& v = e->Get("variants");
+        if (!v.IsArray()) m_doc.fail(where, "must be an array");
+        for (size_t i = 0; i < v.ArrayLen(); ++i) {
+          const auto& item = v.Get(int(i));
+          std::string w = where + "[" + std::to_string(i) + "]";
+          if (!item.IsObject() || !item.Has("name") || !item.Get("name").IsString())
+            m_doc.fail(w, "must be an object with a string 'name'");
+          m_out.variants.push_back(item.Get("name").Get<std::string>());
+        }
+      }
+    }
+    if (m_opt.variant.empty()) return;
+    for (size_t i = 0; i < m_out.variants.size(); ++i)
+      if (m_out.variants[i] == m_opt.variant) {
+        m_variant = int(i);
+        m_out.variant = m_opt.variant;
+        return;
+      }
+    if (m_out.variants.empty())
+      throw Error(m_doc.path + ": material variant '" + m_opt.variant +
+                  "' asked for, but the file defines no variants (KHR_materials_variants)");
+    std::string names;
+    for (const auto& n : m_out.variants) names += (names.empty() ? "'" : ", '") + n + "'";
+    throw Error(m_doc.path + ": no material variant named '" + m_opt.variant + "'; the file's variants: " + names);
+  }
+
+  // The material a primitive uses: its KHR_materials_variants mapping for the
+  // chosen variant, else its own material. Mappings are checked whatever
+  // the variant, so a broken file fails the same way every time.
+  int variant_material(const tinygltf::Primitive& prim, const std::string& where) {
+    int chosen = prim.material;
+    const auto* e = ext(prim.extensions, "KHR_materials_variants");
+    if (!e || !e->Has("mappings")) return chosen;
+    std::string mw = where + ".extensions.KHR_materials_variants.mappings";
+    const auto& maps = e->Get("mappings");
+    if (!maps.IsArray()) m_doc.fail(mw, "must be an array");
+    for (size_t i = 0; i < maps.ArrayLen(); ++i) {
+      const auto& m = maps.Get(int(i));
+      std::string w = mw + "[" + std::to_string(i) + "]";
+      if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants") ||
+          !m.Get("variants").IsArray())
+        m_doc.fail(w, "must be an object with a 'material' index and a 'variants' array");
+      int material = as_index(m.Get("material").GetNumberAsDouble());
+      m_doc.check_index(material, m_doc.model.materials.size(), w + ".material", "material");
+      const auto& vs = m.Get("variants");
+      for (size_t k = 0; k < vs.ArrayLen(); ++k) {
+        const auto& v = vs.Get(int(k));
+        if (!v.IsNumber()) m_doc.fail(w + ".variants[" + std::to_string(k) + "]", "must be a variant index");
+        int vi = as_index(v.GetNumberAsDouble());
+        m_doc.check_index(vi, m_out.variants.size(), w + ".variants[" + std::to_string(k) + "]", "variant");
+        if (vi == m_variant) chosen = material;
+      }
+    }
+    return chosen;
   }
 
   // The scene's material for materials[i] (-1: the default), added once.
@@ -394,6 +465,7 @@ class Loader {
   std::map<uint32_t, Bounds3f> m_bounds_cache;
   std::map<int, uint32_t> m_material_cache;
   bool m_warned_points = false;
+  int m_variant = -1;  // KHR_materials_variants: the index of GltfOptions::variant, -1: the defaults
 };
 
 }  // namespace gltf_detail
