@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <prism/io/gltf.hpp>
+#include <prism/prism.hpp>
 
 int main(int argc, char** argv) {
   using namespace prism;

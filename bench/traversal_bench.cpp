@@ -85,6 +85,7 @@
 #ifdef PRISM_HAS_GLTF
 #include "prism/io/gltf.hpp"
 #include "prism/io/image_io.hpp"
+#include "prism/prism.hpp"
 #endif
 
 using namespace prism;

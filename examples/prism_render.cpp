@@ -126,6 +126,7 @@ struct Job {
   double time = 0;
   double shutter = 0;  // seconds the shutter stays open from `time` (motion blur)
   bool multiple_scattering = false;  // glTF materials: energy compensation (GltfOptions)
+  std::string variant;  // glTF KHR_materials_variants: the variant to load (empty: the defaults)
   std::string env;
   float env_scale = 1;
   bool aovs = false;  // EXR outputs get albedo, normal, depth and variance layers
@@ -385,6 +386,7 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   gopt.time = job.time;
   gopt.shutter = job.shutter;
   gopt.multiple_scattering = job.multiple_scattering;
+  gopt.variant = job.variant;
   try {
     auto g = prism::load_gltf<S, Set>(path, gopt);
     // A material that RGB cannot render exactly (a dispersive volume): load
@@ -393,6 +395,12 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
       if (job.colour_auto && g.scene.needs_spectral()) return run_gltf_file<prism::Spectral, SetT>(job, "spectral", path);
     if (!job.quiet && g_rank == 0)
       for (const auto& w : g.warnings) std::fprintf(stderr, "prism-render: warning: %s\n", w.c_str());
+    if (!job.quiet && g_rank == 0 && !g.variants.empty()) {
+      std::string names;
+      for (const auto& n : g.variants) names += (names.empty() ? "'" : ", '") + n + "'";
+      std::fprintf(stderr, "prism-render: material variant %s (the file's: %s; pick one with --variant)\n",
+                   g.variant.empty() ? "none (the default materials)" : ("'" + g.variant + "'").c_str(), names.c_str());
+    }
     return run_gltf<S, Set>(job, model, g);
   } catch (const prism::Error& e) {
     return fail(e.what());
@@ -453,6 +461,9 @@ int run(int argc, char** argv) {
   app.add_option("--threads", job.threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 4096));
   app.add_option("--max-depth", job.max_depth, "Maximum path depth")->check(CLI::Range(0, 1 << 20));
   app.add_option("--out,-o", job.outputs, "Output image (.png, .exr, .pfm); may repeat")->take_all();
+  app.add_option("--variant", job.variant,
+                 "glTF KHR_materials_variants: load this named material variant (default: the file's default "
+                 "materials)");
   app.add_flag("--multiple-scattering", job.multiple_scattering,
                "glTF materials: Kulla-Conty energy compensation of rough lobes (off: single scattering)");
   app.add_option("--integrator", job.integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")

@@ -1,4 +1,5 @@
-// libFuzzer target for prism's glTF loader (include/prism/io/gltf.hpp).
+// libFuzzer target for prism's glTF loader (include/prism/io/gltf.hpp and
+// the headers under include/prism/io/gltf/).
 // Each input is written to a file in a private temporary folder, as .glb when
 // it starts with the GLB magic's first byte 'g', else as .gltf, then loaded
 // and built. prism::Error is the expected way to reject bad input; anything

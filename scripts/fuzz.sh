@@ -25,7 +25,8 @@ fi
 flags=(-std=c++20 -g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined
        -fno-sanitize-recover=undefined -I"$root/include" -I/usr/include/stb)
 bin="$out/gltf_fuzz"
-srcs=("$root/fuzz/gltf_fuzz.cpp" "$root/fuzz/tinygltf_impl.cpp" "$root/include/prism/io/gltf.hpp")
+srcs=("$root/fuzz/gltf_fuzz.cpp" "$root/fuzz/tinygltf_impl.cpp" "$root/include/prism/io/gltf.hpp"
+      "$root"/include/prism/io/gltf/*.hpp "$root/include/prism/io/image_io.hpp")
 need=0
 [ -x "$bin" ] || need=1
 for s in "${srcs[@]}"; do [ "$s" -nt "$bin" ] && need=1; done

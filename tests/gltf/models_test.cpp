@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
+#include <prism/prism.hpp>
 
 namespace models_test {
 

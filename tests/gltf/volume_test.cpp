@@ -16,6 +16,7 @@
 // (the 1/n^2 radiance factors of entering and leaving cancel). ior 1 gives
 // L = tau exactly.
 #include <catch2/catch.hpp>
+#include "support/gltf_json.hpp"
 #include "support/skip.hpp"
 #include <cmath>
 #include <cstring>
@@ -24,90 +25,22 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
+#include <prism/prism.hpp>
 
 namespace volume_test {
 
 using namespace prism;
 using nlohmann::json;
+using gltf_json::box_gltf;
 
 namespace {
 
+std::string write_temp(const std::string& name, const json& g) {
+  return gltf_json::write_temp_gltf("gltf_volume", name, g);
+}
+
 const std::string scenes_dir = std::string(PRISM_SHARED_DIR) + "/scenes/";
 bool have_scenes() { return std::filesystem::exists(scenes_dir + "README.md"); }
-
-std::string base64(const std::vector<unsigned char>& in) {
-  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < in.size(); i += 3) {
-    unsigned v = unsigned(in[i]) << 16 | unsigned(in[i + 1]) << 8 | in[i + 2];
-    for (int k = 3; k >= 0; --k) out += t[(v >> (6 * k)) & 63];
-  }
-  if (i + 1 == in.size()) {
-    unsigned v = unsigned(in[i]) << 16;
-    out += t[(v >> 18) & 63];
-    out += t[(v >> 12) & 63];
-    out += "==";
-  } else if (i + 2 == in.size()) {
-    unsigned v = unsigned(in[i]) << 16 | unsigned(in[i + 1]) << 8;
-    out += t[(v >> 18) & 63];
-    out += t[(v >> 12) & 63];
-    out += t[(v >> 6) & 63];
-    out += '=';
-  }
-  return out;
-}
-
-// A glTF with one box [-0.5, 0.5]^2 x [0, d] (24 vertices with outward
-// normals, 36 uint16 indices, in a data URI) and one material given as JSON.
-json box_gltf(float d, const json& material, const std::vector<std::string>& extensions) {
-  std::vector<float> pos, nrm;
-  std::vector<uint16_t> idx;
-  auto face = [&](std::array<float, 3> n, std::array<std::array<float, 3>, 4> v) {
-    auto base = uint16_t(pos.size() / 3);
-    for (auto& p : v) {
-      pos.insert(pos.end(), p.begin(), p.end());
-      nrm.insert(nrm.end(), n.begin(), n.end());
-    }
-    // v in counter-clockwise order seen from outside.
-    for (int k : {0, 1, 2, 0, 2, 3}) idx.push_back(uint16_t(base + k));
-  };
-  const float a = 0.5f;
-  face({0, 0, 1}, {{{-a, -a, d}, {a, -a, d}, {a, a, d}, {-a, a, d}}});
-  face({0, 0, -1}, {{{-a, -a, 0}, {-a, a, 0}, {a, a, 0}, {a, -a, 0}}});
-  face({1, 0, 0}, {{{a, -a, 0}, {a, a, 0}, {a, a, d}, {a, -a, d}}});
-  face({-1, 0, 0}, {{{-a, -a, 0}, {-a, -a, d}, {-a, a, d}, {-a, a, 0}}});
-  face({0, 1, 0}, {{{-a, a, 0}, {-a, a, d}, {a, a, d}, {a, a, 0}}});
-  face({0, -1, 0}, {{{-a, -a, 0}, {a, -a, 0}, {a, -a, d}, {-a, -a, d}}});
-  std::vector<unsigned char> bytes(pos.size() * 4 + nrm.size() * 4 + idx.size() * 2);
-  std::memcpy(bytes.data(), pos.data(), pos.size() * 4);
-  std::memcpy(bytes.data() + pos.size() * 4, nrm.data(), nrm.size() * 4);
-  std::memcpy(bytes.data() + pos.size() * 8, idx.data(), idx.size() * 2);
-  size_t n = pos.size() / 3;
-  json g;
-  g["asset"] = {{"version", "2.0"}};
-  g["extensionsUsed"] = extensions;
-  g["scene"] = 0;
-  g["scenes"] = json::array({{{"nodes", {0}}}});
-  g["nodes"] = json::array({{{"mesh", 0}}});
-  g["meshes"] = json::array(
-      {{{"primitives", json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"material", 0}}})}}});
-  g["materials"] = json::array({material});
-  g["buffers"] = json::array(
-      {{{"byteLength", bytes.size()}, {"uri", "data:application/octet-stream;base64," + base64(bytes)}}});
-  g["bufferViews"] = json::array({{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", n * 12}},
-                                  {{"buffer", 0}, {"byteOffset", n * 12}, {"byteLength", n * 12}},
-                                  {{"buffer", 0}, {"byteOffset", n * 24}, {"byteLength", idx.size() * 2}}});
-  g["accessors"] = json::array({{{"bufferView", 0},
-                                 {"componentType", 5126},
-                                 {"count", n},
-                                 {"type", "VEC3"},
-                                 {"min", {-a, -a, 0}},
-                                 {"max", {a, a, d}}},
-                                {{"bufferView", 1}, {"componentType", 5126}, {"count", n}, {"type", "VEC3"}},
-                                {{"bufferView", 2}, {"componentType", 5123}, {"count", idx.size()}, {"type", "SCALAR"}}});
-  return g;
-}
 
 // A transmissive, smooth, white volume material.
 json volume_material(double ior, std::array<double, 3> color, double distance, double thickness = 1,
@@ -121,14 +54,6 @@ json volume_material(double ior, std::array<double, 3> color, double distance, d
   m["extensions"]["KHR_materials_volume"] = v;
   if (dispersion != 0) m["extensions"]["KHR_materials_dispersion"] = {{"dispersion", dispersion}};
   return m;
-}
-
-std::string write_temp(const std::string& name, const json& g) {
-  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_volume";
-  std::filesystem::create_directories(dir);
-  std::string path = dir + "/" + name;
-  std::ofstream(path) << g.dump();
-  return path;
 }
 
 double closed_form(double n, double tau) {

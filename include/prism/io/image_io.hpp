@@ -4,13 +4,15 @@
 // tinyexr. PFM: linear float RGB, bottom-to-top as the format defines.
 // Non-finite values are written as 0: an image prism writes never holds NaN/Inf.
 // Environment maps (read_environment): Radiance RGBE .hdr through stb_image,
-// .exr through tinyexr, .pfm.
+// .exr through tinyexr, .pfm. decode_image is the one stb_image decoding path,
+// shared with the glTF loader's textures (io/gltf/images.hpp).
 #pragma once
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -18,6 +20,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -45,6 +48,73 @@ inline void check_image(const Image& img, const std::string& path) {
                 " does not match its data");
 }
 }  // namespace detail
+
+// An image decoded from memory by decode_image: interleaved samples, rows from
+// the top (unless the caller set stb_image's global vertical flip).
+struct DecodedImage {
+  int width = 0, height = 0, channels = 0;
+  std::vector<uint8_t> u8;    // an 8-bit file
+  std::vector<uint16_t> u16;  // a 16-bit file (PNG, PNM)
+  std::vector<float> f32;     // DecodeOptions::as_float (Radiance HDR: linear radiance)
+  // Empty when decoded. Else what is wrong: the image is over the pixel limit
+  // (over_limit: "W x H pixels is too large (at most 2^N pixels)"), or
+  // stb_image's reason for refusing it.
+  std::string error;
+  bool over_limit = false;
+};
+struct DecodeOptions {
+  bool as_float = false;    // float samples instead of the file's 8 or 16 bits
+  int channels = 0;         // the channels wanted; 0: the file's
+  int max_pixels_log2 = 0;  // refuse an image of more than 2^this pixels before decoding it; 0: no limit
+};
+
+// The one stb_image decoder of prism's image readers (Radiance HDR
+// environment maps, glTF textures): whatever stb_image reads, from memory.
+inline DecodedImage decode_image(const unsigned char* bytes, size_t size, const DecodeOptions& opt = {}) {
+  DecodedImage out;
+  auto failed = [&] {
+    const char* why = stbi_failure_reason();
+    out.error = why ? why : "unknown error";
+    return out;
+  };
+  if (size > size_t(std::numeric_limits<int>::max())) {
+    out.error = "larger than 2 GB";
+    return out;
+  }
+  const int len = int(size);
+  int w = 0, h = 0, c = 0;
+  if (opt.max_pixels_log2 > 0) {
+    if (!stbi_info_from_memory(bytes, len, &w, &h, &c)) return failed();
+    if (double(w) * double(h) > std::ldexp(1.0, opt.max_pixels_log2)) {
+      out.error = std::to_string(w) + " x " + std::to_string(h) + " pixels is too large (at most 2^" +
+                  std::to_string(opt.max_pixels_log2) + " pixels)";
+      out.over_limit = true;
+      return out;
+    }
+  }
+  // Copies stb's samples and frees them (also if the copy throws).
+  auto take = [&](auto* px, auto& dst) {
+    std::unique_ptr<void, void (*)(void*)> owned(px, stbi_image_free);
+    out.width = w;
+    out.height = h;
+    out.channels = opt.channels ? opt.channels : c;
+    dst.assign(px, px + size_t(w) * size_t(h) * size_t(out.channels));
+  };
+  if (opt.as_float) {
+    float* px = stbi_loadf_from_memory(bytes, len, &w, &h, &c, opt.channels);
+    if (!px) return failed();
+    take(px, out.f32);
+  } else if (stbi_is_16_bit_from_memory(bytes, len)) {
+    stbi_us* px = stbi_load_16_from_memory(bytes, len, &w, &h, &c, opt.channels);
+    if (!px) return failed();
+    take(px, out.u16);
+  } else {
+    stbi_uc* px = stbi_load_from_memory(bytes, len, &w, &h, &c, opt.channels);
+    if (!px) return failed();
+    take(px, out.u8);
+  }
+  return out;
+}
 
 // How a linear image becomes display values for PNG: scaled by `exposure`
 // (a multiplier; 2^EV for EV stops), then tone mapped, then sRGB encoded.
@@ -470,16 +540,9 @@ inline EnvironmentImage read_rgbe(const std::string& path) {
   if (f.bad()) throw Error(path + ": read failed");
   std::vector<unsigned char> mem = canonical_rgbe(file, path);
   if (mem.size() > size_t(std::numeric_limits<int>::max())) throw Error(path + ": Radiance HDR: file too large");
-  int w = 0, h = 0, channels = 0;
-  // Rows come from the top unless the caller set stb's global vertical flip.
-  float* data = stbi_loadf_from_memory(mem.data(), int(mem.size()), &w, &h, &channels, 3);
-  if (!data) {
-    const char* why = stbi_failure_reason();
-    throw Error(path + ": cannot decode Radiance HDR: " + (why ? why : "unknown error"));
-  }
-  EnvironmentImage img{w, h, std::vector<float>(data, data + size_t(w) * size_t(h) * 3)};
-  stbi_image_free(data);
-  return img;
+  DecodedImage px = decode_image(mem.data(), mem.size(), {.as_float = true, .channels = 3});
+  if (!px.error.empty()) throw Error(path + ": cannot decode Radiance HDR: " + px.error);
+  return EnvironmentImage{px.width, px.height, std::move(px.f32)};
 }
 }  // namespace detail
 

@@ -4,6 +4,9 @@
 // the translation).
 #pragma once
 #include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
 #include <optional>
 #include "prism/math/bounds.hpp"
 #include "prism/math/frame.hpp"
@@ -160,6 +163,58 @@ class Transform {
 
  private:
   Matrix4 m_m, m_inv;
+};
+
+// A 4x4 matrix in double precision, row-major: m[4 * row + column]. For
+// composing a chain of transforms with one rounding to Float at the end
+// (to_float), where Matrix4's product rounds every step: a glTF node
+// hierarchy, its instancing and animated TRS values (io/gltf/) compose in
+// double, so a deep hierarchy does not drift with its depth.
+struct Matrix4d {
+  std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+  Matrix4d operator*(const Matrix4d& b) const {
+    Matrix4d r;
+    for (size_t i = 0; i < 4; ++i)
+      for (size_t j = 0; j < 4; ++j) {
+        double s = 0;
+        for (size_t k = 0; k < 4; ++k) s += m[4 * i + k] * b.m[4 * k + j];
+        r.m[4 * i + j] = s;
+      }
+    return r;
+  }
+  bool operator==(const Matrix4d&) const = default;
+
+  // T * R * S from a translation, a rotation quaternion (x, y, z, w; glTF's
+  // order), normalised here unless it is zero, and a scale.
+  static Matrix4d trs(const std::array<double, 3>& t, std::array<double, 4> q, const std::array<double, 3>& s) {
+    double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (n > 0)
+      for (auto& c : q) c /= n;
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+                   2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                   2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+    Matrix4d out;
+    for (size_t i = 0; i < 3; ++i) {
+      for (size_t j = 0; j < 3; ++j) out.m[4 * i + j] = r[3 * i + j] * s[j];
+      out.m[4 * i + 3] = t[i];
+    }
+    return out;
+  }
+  // The point p transformed (affine: the bottom row is not used).
+  std::array<double, 3> apply_point(const std::array<double, 3>& p) const {
+    std::array<double, 3> r{};
+    for (size_t i = 0; i < 3; ++i) r[i] = m[4 * i] * p[0] + m[4 * i + 1] * p[1] + m[4 * i + 2] * p[2] + m[4 * i + 3];
+    return r;
+  }
+  // Each element rounded to Float.
+  Matrix4 to_float() const {
+    Matrix4 r;
+    for (size_t i = 0; i < 4; ++i)
+      for (size_t j = 0; j < 4; ++j) r.m[i][j] = Float(m[4 * i + j]);
+    return r;
+  }
 };
 
 inline Transform translate(const Vector3f& d) {

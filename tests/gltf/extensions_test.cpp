@@ -1,0 +1,354 @@
+// glTF extensions that change which material a surface gets or what it does
+// with light: KHR_materials_unlit, KHR_materials_variants and the fallback
+// rules of KHR_texture_basisu. Boxes with one material are written in code
+// (tests/support/gltf_json.hpp); the shared UnlitTest and
+// MaterialsVariantsShoe models are loaded when ../shared is present.
+//
+// Unlit, as the extension specifies: the surface shows its base colour
+// (factor x texture) and takes no light. A camera ray that meets it returns
+// exactly that colour, whatever lights the scene, so the RGB checks are
+// exact (to float rounding), and the same box without the extension, lit by
+// the same environment, must differ (the control that shows the check can
+// fail).
+#include <catch2/catch.hpp>
+#include "support/gltf_json.hpp"
+#include "support/skip.hpp"
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <nlohmann/json.hpp>
+#include <stb/stb_image.h>
+#include <prism/io/gltf.hpp>
+#include <prism/io/image_io.hpp>
+#include <prism/prism.hpp>
+
+namespace extensions_test {
+
+using namespace prism;
+using nlohmann::json;
+using gltf_json::box_gltf;
+
+namespace {
+
+const std::string scenes_dir = std::string(PRISM_SHARED_DIR) + "/scenes/";
+bool have_scenes() { return std::filesystem::exists(scenes_dir + "README.md"); }
+
+std::string write_temp(const std::string& name, const json& g) {
+  return gltf_json::write_temp_gltf("gltf_extensions", name, g);
+}
+
+json unlit_material(std::array<double, 3> c, bool unlit = true) {
+  json m;
+  m["pbrMetallicRoughness"] = {{"baseColorFactor", {c[0], c[1], c[2], 1.0}}, {"metallicFactor", 0}};
+  if (unlit) m["extensions"]["KHR_materials_unlit"] = json::object();
+  return m;
+}
+
+// The mean colour of a 4x4 orthographic view of the box's top face (the
+// window [-0.3, 0.3]^2 of the face [-0.5, 0.5]^2), with its pooled sigma.
+struct Window {
+  std::array<double, 3> mean{}, sigma{};
+  bool finite = true;
+};
+template <class S, class G>
+Window top_face(G& g, int spp) {
+  const int w = 4, h = 4;
+  OrthographicCamera cam(look_at_camera_to_world({0, 0, 10}, {0, 0, 0}, {0, 1, 0}), 0.6f, w, h);
+  Film film(w, h);
+  RenderOptions opt;
+  opt.spp = spp;
+  opt.threads = 1;
+  render(g.scene, cam, PathIntegrator(), film, opt);
+  Window out;
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0, var = 0;
+    for (int py = 0; py < h; ++py)
+      for (int px = 0; px < w; ++px) {
+        double v = film.pixel(px, py)[c];
+        out.finite = out.finite && std::isfinite(v);
+        sum += v;
+        var += double(film.variance(px, py)[c]);
+      }
+    out.mean[size_t(c)] = sum / (w * h);
+    out.sigma[size_t(c)] = std::sqrt(var) / (w * h);
+  }
+  return out;
+}
+
+// Loads the box with `material` under a white environment of radiance 2
+// (bright enough that any reflected light shows) and returns the top face.
+template <class S>
+Window render_box(const json& material, const std::vector<std::string>& used, const GltfOptions& opt = {},
+                  int spp = 16) {
+  auto g = load_gltf<S>(write_temp("box.gltf", box_gltf(1, material, used)), opt);
+  g.scene.add_light(UniformInfiniteLight<S>(RGB(2.f)));
+  g.scene.build();
+  return top_face<S>(g, spp);
+}
+
+}  // namespace
+
+TEST_CASE("KHR_materials_unlit shows the base colour exactly and takes no light, RGB", "[gltf][unlit]") {
+  const std::array<double, 3> c{0.2, 0.5, 0.8};
+  Window unlit = render_box<RGB>(unlit_material(c), {"KHR_materials_unlit"});
+  CHECK(unlit.finite);
+  for (size_t k = 0; k < 3; ++k) {
+    INFO("channel " << k << ": " << unlit.mean[k] << " expected " << c[k]);
+    CHECK(std::abs(unlit.mean[k] - c[k]) <= 1e-5);
+    CHECK(unlit.sigma[k] <= 1e-6);  // every sample is the base colour
+  }
+  // The control: the same surface lit by the same environment reflects
+  // about base x 2 + the specular layer's 0.04 x 2.
+  Window lit = render_box<RGB>(unlit_material(c, false), {});
+  for (size_t k = 0; k < 3; ++k) {
+    INFO("lit channel " << k << ": " << lit.mean[k]);
+    CHECK(lit.mean[k] > c[k] + 0.1);
+  }
+}
+
+TEST_CASE("KHR_materials_unlit: the base colour texture multiplies the factor, no fallback light", "[gltf][unlit]") {
+  // A 2x2 PNG of pure red (sRGB 255, 0, 0 decodes to exactly 1, 0, 0).
+  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
+  std::filesystem::create_directories(dir);
+  write_png(dir + "/red.png", Image{2, 2, std::vector<float>{1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0}});
+  json m = unlit_material({0.5, 0.25, 1.0});
+  m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  json g = box_gltf(1, m, {"KHR_materials_unlit"});
+  g["textures"] = json::array({{{"source", 0}}});
+  g["images"] = json::array({{{"uri", "red.png"}}});
+  auto scene = load_gltf<RGB>(write_temp("unlit_textured.gltf", g));
+  CHECK(scene.warnings.empty());
+  CHECK(scene.emissive_instances == 1);
+  CHECK(scene.has_lights());  // an unlit scene is lit by itself: prism-render adds no environment
+  scene.scene.build();
+  // The texture is red everywhere, whatever the box's texture coordinates.
+  Window w = top_face<RGB>(scene, 4);
+  CHECK(std::abs(w.mean[0] - 0.5) <= 1e-5);
+  CHECK(std::abs(w.mean[1]) <= 1e-6);
+  CHECK(std::abs(w.mean[2]) <= 1e-6);
+}
+
+// Spectral: the base colour is emitted as an RGB illuminant spectrum, whose
+// film RGB reproduces the colour up to the uplift's round trip (at most
+// 5e-4 per channel, tests/spectra/uplift_test.cpp) and the hero-wavelength
+// noise (4 sigma, one check per channel: a family of 3, Sidak-corrected
+// 4 sigma is 4.2, so 4.5 sigma is used).
+TEST_CASE("KHR_materials_unlit shows the base colour, spectral", "[gltf][unlit][spectral]") {
+  const std::array<double, 3> c{0.2, 0.5, 0.8};
+  Window w = render_box<Spectral>(unlit_material(c), {"KHR_materials_unlit"}, {}, 256);
+  CHECK(w.finite);
+  for (size_t k = 0; k < 3; ++k) {
+    INFO("channel " << k << ": " << w.mean[k] << " expected " << c[k] << " sigma " << w.sigma[k]);
+    CHECK(std::abs(w.mean[k] - c[k]) <= 4.5 * w.sigma[k] + 5e-4);
+  }
+}
+
+TEST_CASE("UnlitTest: the required KHR_materials_unlit loads, every surface emits its base colour", "[gltf][unlit]") {
+  std::string path = scenes_dir + "UnlitTest/glTF-Binary/UnlitTest.glb";
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto g = load_gltf<RGB>(path);
+  CHECK(g.warnings.empty());
+  CHECK(g.emissive_instances == 2);
+  CHECK(g.punctual_lights == 0);
+  g.scene.build();
+  // Camera looking at the scene: every pixel is background (0) or one of
+  // the two base colours (orange 1, 0.2176, 0; blue 0, 0.2176, 1), or a
+  // mixture of them at an edge: green is never above 0.2177 and the image
+  // holds both colours.
+  auto cam = gltf_framing_camera(g.bounds, 32, 16, 0, 1);
+  Film film(32, 16);
+  RenderOptions opt;
+  opt.spp = 4;
+  opt.threads = 1;
+  render(g.scene, cam, PathIntegrator(), film, opt);
+  int orange = 0, blue = 0;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 32; ++x) {
+      RGB p = film.pixel(x, y);
+      CHECK(p.g <= 0.2177f);
+      if (std::abs(p.r - 1) < 1e-4f && std::abs(p.g - 0.217637f) < 1e-4f && p.b < 1e-6f) ++orange;
+      if (std::abs(p.b - 1) < 1e-4f && std::abs(p.g - 0.217637f) < 1e-4f && p.r < 1e-6f) ++blue;
+    }
+  CHECK(orange > 10);
+  CHECK(blue > 10);
+}
+
+namespace {
+
+// A box whose primitive maps materials 1 and 2 to variants "a" and "b";
+// material 0 (red) is the default. All unlit, so the render tells the
+// material exactly.
+json variants_box() {
+  json g = box_gltf(1, unlit_material({1, 0, 0}), {"KHR_materials_unlit", "KHR_materials_variants"});
+  g["materials"].push_back(unlit_material({0, 1, 0}));
+  g["materials"].push_back(unlit_material({0, 0, 1}));
+  g["extensions"]["KHR_materials_variants"]["variants"] = json::array({{{"name", "a"}}, {{"name", "b"}}});
+  g["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"] =
+      json::array({{{"material", 1}, {"variants", {0}}}, {{"material", 2}, {"variants", {1}}}});
+  return g;
+}
+
+std::array<double, 3> variant_colour(const json& g, const std::string& variant) {
+  GltfOptions opt;
+  opt.variant = variant;
+  auto s = load_gltf<RGB>(write_temp("variants.gltf", g), opt);
+  CHECK(s.warnings.empty());
+  CHECK(s.variants == std::vector<std::string>{"a", "b"});
+  CHECK(s.variant == variant);
+  s.scene.build();
+  return top_face<RGB>(s, 1).mean;
+}
+
+std::string load_error(const json& g, const std::string& variant) {
+  GltfOptions opt;
+  opt.variant = variant;
+  try {
+    load_gltf<RGB>(write_temp("variants_bad.gltf", g), opt);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("KHR_materials_variants: the default materials, each named variant, and errors", "[gltf][variants]") {
+  json g = variants_box();
+  CHECK(variant_colour(g, "") == std::array<double, 3>{1, 0, 0});
+  CHECK(variant_colour(g, "a") == std::array<double, 3>{0, 1, 0});
+  CHECK(variant_colour(g, "b") == std::array<double, 3>{0, 0, 1});
+
+  std::string e = load_error(g, "c");
+  INFO(e);
+  CHECK(e.find("variants_bad.gltf") != std::string::npos);
+  CHECK(e.find("no material variant named 'c'") != std::string::npos);
+  CHECK(e.find("'a', 'b'") != std::string::npos);
+
+  json plain = box_gltf(1, unlit_material({1, 0, 0}), {});
+  e = load_error(plain, "a");
+  CHECK(e.find("defines no variants") != std::string::npos);
+
+  json bad = variants_box();
+  bad["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"][1]["variants"][0] = 5;
+  e = load_error(bad, "");  // checked whatever the variant
+  CHECK(e.find("meshes[0].primitives[0].extensions.KHR_materials_variants.mappings[1].variants[0]") !=
+        std::string::npos);
+  CHECK(e.find("variant index 5 out of range (2 variants)") != std::string::npos);
+
+  bad = variants_box();
+  bad["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"][0]["material"] = 7;
+  e = load_error(bad, "a");
+  CHECK(e.find("mappings[0].material: material index 7 out of range (3 materials)") != std::string::npos);
+
+  bad = variants_box();
+  bad["extensions"]["KHR_materials_variants"]["variants"][1] = {{"name", 3}};
+  e = load_error(bad, "");
+  CHECK(e.find("extensions.KHR_materials_variants.variants[1]") != std::string::npos);
+}
+
+TEST_CASE("MaterialsVariantsShoe: each variant takes its own base colour image", "[gltf][variants]") {
+  std::string dir = scenes_dir + "MaterialsVariantsShoe/glTF/";
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  // The expected image per variant, read from the file's JSON: the mapping's
+  // material, its baseColorTexture, that texture's image.
+  json j = json::parse(std::ifstream(dir + "MaterialsVariantsShoe.gltf"));
+  const auto& names = j["extensions"]["KHR_materials_variants"]["variants"];
+  REQUIRE(names.size() == 3);
+  const auto& mappings = j["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"];
+  auto image_of_material = [&](int m) {
+    int tex = j["materials"][size_t(m)]["pbrMetallicRoughness"]["baseColorTexture"]["index"];
+    int img = j["textures"][size_t(tex)]["source"];
+    return j["images"][size_t(img)]["uri"].get<std::string>();
+  };
+  std::set<std::string> seen;
+  for (size_t v = 0; v < names.size(); ++v) {
+    std::string name = names[v]["name"];
+    int material = j["meshes"][0]["primitives"][0]["material"];
+    for (const auto& m : mappings)
+      for (int k : m["variants"])
+        if (size_t(k) == v) material = m["material"];
+    std::string uri = image_of_material(material);
+    seen.insert(uri);
+    GltfOptions opt;
+    opt.variant = name;
+    auto g = load_gltf<RGB>(dir + "MaterialsVariantsShoe.gltf", opt);
+    CHECK(g.variants.size() == 3);
+    REQUIRE(g.scene.materials().size() == 1);  // one primitive: one material added
+    const auto& mat = std::get<0>(g.scene.materials()[0]);
+    REQUIRE(mat.textures);
+    REQUIRE(mat.textures->base_color);
+    const TextureImage& loaded = *mat.textures->base_color->image;
+    int w = 0, h = 0, n = 0;
+    unsigned char* px = stbi_load((dir + uri).c_str(), &w, &h, &n, 0);
+    REQUIRE(px);
+    INFO("variant " << name << ": " << uri);
+    CHECK(loaded.width() == w);
+    CHECK(loaded.height() == h);
+    auto data = loaded.u8_data();
+    bool same = data.size() == size_t(w) * size_t(h) * size_t(n) && std::equal(data.begin(), data.end(), px);
+    stbi_image_free(px);
+    CHECK(same);
+  }
+  CHECK(seen.size() == 3);  // three different images: the check above can tell them apart
+}
+
+namespace {
+
+// A box with a texture whose KHR_texture_basisu source is a .ktx2 image
+// that does not exist, with or without a PNG fallback in "source".
+json basisu_box(bool fallback, bool required) {
+  json m = unlit_material({0.5, 0.25, 1.0});
+  m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  std::vector<std::string> used{"KHR_materials_unlit", "KHR_texture_basisu"};
+  json g = box_gltf(1, m, used);
+  json tex;
+  tex["extensions"]["KHR_texture_basisu"] = {{"source", 1}};
+  if (fallback) tex["source"] = 0;
+  g["textures"] = json::array({tex});
+  g["images"] = json::array({{{"uri", "red.png"}}, {{"uri", "missing.ktx2"}, {"mimeType", "image/ktx2"}}});
+  if (required) g["extensionsRequired"] = {"KHR_texture_basisu"};
+  return g;
+}
+
+}  // namespace
+
+TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error when required", "[gltf][basisu]") {
+  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
+  std::filesystem::create_directories(dir);
+  write_png(dir + "/red.png", Image{2, 2, std::vector<float>{1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0}});
+  auto mentions = [](const std::vector<std::string>& warnings, const std::string& what) {
+    return std::any_of(warnings.begin(), warnings.end(),
+                       [&](const std::string& w) { return w.find(what) != std::string::npos; });
+  };
+  {  // optional, with a fallback: the PNG is used
+    auto g = load_gltf<RGB>(write_temp("basisu_fallback.gltf", basisu_box(true, false)));
+    CHECK(mentions(g.warnings, "KHR_texture_basisu"));
+    g.scene.build();
+    Window w = top_face<RGB>(g, 1);
+    CHECK(std::abs(w.mean[0] - 0.5) <= 1e-5);
+    CHECK(w.mean[1] == 0);
+  }
+  {  // optional, no fallback: the texture is dropped with a warning, the factor stays
+    auto g = load_gltf<RGB>(write_temp("basisu_none.gltf", basisu_box(false, false)));
+    CHECK(mentions(g.warnings, "textures[0]: no source image"));
+    g.scene.build();
+    Window w = top_face<RGB>(g, 1);
+    CHECK(std::abs(w.mean[1] - 0.25) <= 1e-5);
+  }
+  {  // required: an error naming the extension
+    std::string e;
+    try {
+      load_gltf<RGB>(write_temp("basisu_required.gltf", basisu_box(true, true)));
+    } catch (const Error& err) {
+      e = err.what();
+    }
+    INFO(e);
+    CHECK(e.find("basisu_required.gltf") != std::string::npos);
+    CHECK(e.find("KHR_texture_basisu") != std::string::npos);
+    CHECK(e.find("KTX2") != std::string::npos);
+  }
+}
+
+}  // namespace extensions_test
