@@ -24,6 +24,12 @@ fi
 
 flags=(-std=c++20 -g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined
        -fno-sanitize-recover=undefined -I"$root/include" -I/usr/include/stb)
+# WebP (EXT_texture_webp) through libwebp, as prism::gltf has it when found.
+webp_libs=()
+if pkg-config --exists libwebp 2>/dev/null; then
+  flags+=(-DPRISM_HAS_WEBP=1 $(pkg-config --cflags libwebp))
+  read -r -a webp_libs <<<"$(pkg-config --libs libwebp)"
+fi
 bin="$out/gltf_fuzz"
 srcs=("$root/fuzz/gltf_fuzz.cpp" "$root/fuzz/tinygltf_impl.cpp" "$root/include/prism/io/gltf.hpp"
       "$root"/include/prism/io/gltf/*.hpp "$root/include/prism/io/image_io.hpp")
@@ -41,7 +47,7 @@ if [ $need = 1 ]; then
   fi
   "$cxx" "${flags[@]}" -c "$root/fuzz/gltf_fuzz.cpp" -o "$out/gltf_fuzz.o"
   if [ $impl != 0 ]; then wait $impl; fi
-  "$cxx" "${flags[@]}" "$out/gltf_fuzz.o" "$out/tinygltf_impl.o" -o "$bin" -pthread
+  "$cxx" "${flags[@]}" "$out/gltf_fuzz.o" "$out/tinygltf_impl.o" -o "$bin" -pthread "${webp_libs[@]}"
 fi
 
 # Seeds: the small single-file models (GLB and data-URI glTF), once.

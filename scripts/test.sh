@@ -78,6 +78,9 @@ suite() {
   for t in prism_test_io prism_test_gltf prism_test_gltf_input; do
     grep -q "^$t: " <<<"$targets" || { echo "test.sh: $t is not configured (prism::io or prism::gltf not found)"; return 1; }
   done
+  # libwebp (setup.sh installs it) must have been found for EXT_texture_webp.
+  grep -q -- "-DPRISM_HAS_WEBP=1" build/test/build.ninja ||
+    { echo "test.sh: prism::gltf was configured without libwebp (EXT_texture_webp)"; return 1; }
   # (Called from step's '||', where set -e does not stop a function.)
   cmake --build build/test || return 1
   cd build/test

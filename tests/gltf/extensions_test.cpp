@@ -1,6 +1,7 @@
 // glTF extensions that change which material a surface gets or what it does
-// with light: KHR_materials_unlit, KHR_materials_variants and the fallback
-// rules of KHR_texture_basisu. Boxes with one material are written in code
+// with light: KHR_materials_unlit, KHR_materials_variants, the fallback
+// rules of KHR_texture_basisu and EXT_texture_webp (WebP images through
+// libwebp, encoded losslessly here so that every texel is known). Boxes with one material are written in code
 // (tests/support/gltf_json.hpp); the shared UnlitTest and
 // MaterialsVariantsShoe models are loaded when ../shared is present.
 //
@@ -23,6 +24,9 @@
 #include <prism/io/gltf.hpp>
 #include <prism/io/image_io.hpp>
 #include <prism/prism.hpp>
+#if defined(PRISM_HAS_WEBP)
+#include <webp/encode.h>
+#endif
 
 namespace extensions_test {
 
@@ -350,5 +354,114 @@ TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error w
     CHECK(e.find("KTX2") != std::string::npos);
   }
 }
+
+namespace {
+
+// A box whose base colour texture has a PNG fallback (red) in "source" and,
+// with `webp_ext`, a WebP image in EXT_texture_webp; images: red.png, and
+// the WebP file `webp_name`.
+json webp_box(bool webp_ext, bool fallback, bool required, const std::string& webp_name) {
+  json m;
+  m["pbrMetallicRoughness"] = {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0}};
+  std::vector<std::string> used;
+  if (webp_ext) used.push_back("EXT_texture_webp");
+  json g = box_gltf(1, m, used);
+  json tex = json::object();
+  if (fallback) tex["source"] = 0;
+  if (webp_ext) tex["extensions"]["EXT_texture_webp"] = {{"source", 1}};
+  g["textures"] = json::array({tex});
+  g["images"] = json::array({{{"uri", "red.png"}}, {{"uri", webp_name}, {"mimeType", "image/webp"}}});
+  if (required) g["extensionsRequired"] = {"EXT_texture_webp"};
+  return g;
+}
+
+std::string tmp_dir() {
+  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
+  std::filesystem::create_directories(dir);
+  write_png(dir + "/red.png", Image{2, 2, std::vector<float>{1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0}});
+  return dir;
+}
+
+}  // namespace
+
+#if defined(PRISM_HAS_WEBP)
+TEST_CASE("EXT_texture_webp: the WebP image, texel for texel, in preference to the fallback", "[gltf][webp]") {
+  std::string dir = tmp_dir();
+  // A 3 x 2 lossless WebP, every texel different; and one with alpha (none 0:
+  // the lossless encoder drops the colour of fully transparent texels).
+  const std::vector<uint8_t> rgb{10, 20, 30, 40, 50, 60, 70, 80, 90, 100, 110, 120, 130, 140, 150, 160, 170, 180};
+  const std::vector<uint8_t> rgba{10, 20, 30, 1, 40, 50, 60, 85, 70, 80, 90, 170, 100, 110, 120, 255};
+  auto write_webp = [&](const std::string& name, const std::vector<uint8_t>& px, int w, int h, bool alpha) {
+    uint8_t* out = nullptr;
+    size_t n = alpha ? WebPEncodeLosslessRGBA(px.data(), w, h, w * 4, &out)
+                     : WebPEncodeLosslessRGB(px.data(), w, h, w * 3, &out);
+    REQUIRE(n > 0);
+    std::vector<char> bytes(out, out + n);
+    WebPFree(out);
+    std::ofstream(dir + "/" + name, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    return bytes;
+  };
+  auto texture_of = [](const auto& g) -> const TextureImage& {
+    const auto& mat = std::get<0>(g.scene.materials()[0]);
+    REQUIRE(mat.textures);
+    REQUIRE(mat.textures->base_color);
+    return *mat.textures->base_color->image;
+  };
+  auto bytes = write_webp("texels.webp", rgb, 3, 2, false);
+  write_webp("alpha.webp", rgba, 2, 2, true);
+  for (bool fallback : {true, false})
+    for (bool required : {false, true}) {
+      INFO("fallback " << fallback << " required " << required);
+      auto g = load_gltf<RGB>(write_temp("webp.gltf", webp_box(true, fallback, required, "texels.webp")));
+      CHECK(g.warnings.empty());
+      const TextureImage& t = texture_of(g);
+      CHECK(t.width() == 3);
+      CHECK(t.height() == 2);
+      CHECK(t.channels() == 3);
+      auto d = t.u8_data();
+      CHECK(std::vector<uint8_t>(d.begin(), d.end()) == rgb);
+    }
+  {
+    auto g = load_gltf<RGB>(write_temp("webp_alpha.gltf", webp_box(true, true, false, "alpha.webp")));
+    const TextureImage& t = texture_of(g);
+    CHECK(t.channels() == 4);
+    auto d = t.u8_data();
+    CHECK(std::vector<uint8_t>(d.begin(), d.end()) == rgba);
+  }
+  // Broken WebP files: an error naming the image, never a crash.
+  auto load_error = [&](const std::string& name, const std::vector<char>& file) {
+    std::ofstream(dir + "/" + name, std::ios::binary).write(file.data(), std::streamsize(file.size()));
+    try {
+      load_gltf<RGB>(write_temp("webp_bad.gltf", webp_box(true, true, false, name)));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  std::vector<char> truncated(bytes.begin(), bytes.begin() + std::ptrdiff_t(bytes.size() / 2));
+  std::string e = load_error("truncated.webp", truncated);
+  INFO(e);
+  CHECK(e.find("webp_bad.gltf: images[1] ('truncated.webp')") != std::string::npos);
+  CHECK(e.find("truncated WebP") != std::string::npos);
+  std::vector<char> garbage = bytes;
+  for (size_t i = 20; i < garbage.size(); ++i) garbage[i] = char(0x5a);
+  e = load_error("garbage.webp", garbage);
+  CHECK(e.find("images[1] ('garbage.webp')") != std::string::npos);
+  CHECK(e.find("WebP") != std::string::npos);
+}
+#else
+TEST_CASE("EXT_texture_webp without libwebp: the fallback when optional, an error when required", "[gltf][webp]") {
+  tmp_dir();
+  auto g = load_gltf<RGB>(write_temp("webp.gltf", webp_box(true, true, false, "missing.webp")));
+  CHECK(!g.warnings.empty());
+  std::string e;
+  try {
+    load_gltf<RGB>(write_temp("webp_required.gltf", webp_box(true, true, true, "missing.webp")));
+  } catch (const Error& err) {
+    e = err.what();
+  }
+  CHECK(e.find("EXT_texture_webp") != std::string::npos);
+}
+#endif
 
 }  // namespace extensions_test

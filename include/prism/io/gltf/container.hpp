@@ -64,6 +64,13 @@ inline int as_index(double v) {
   return v >= 0 && v <= 2147483647.0 && v == std::floor(v) ? int(v) : -1;
 }
 
+// Whether WebP images decode (prism::gltf found libwebp: EXT_texture_webp).
+#if defined(PRISM_HAS_WEBP)
+inline constexpr bool webp_decoder = true;
+#else
+inline constexpr bool webp_decoder = false;
+#endif
+
 // The extensions this loader honours (others in extensionsRequired are an
 // error; in extensionsUsed, one warning each).
 inline bool supported_extension(const std::string& e) {
@@ -73,7 +80,7 @@ inline bool supported_extension(const std::string& e) {
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};
   for (const char* k : known)
     if (e == k) return true;
-  return false;
+  return webp_decoder && e == "EXT_texture_webp";
 }
 // Extensions that change nothing a path tracer renders.
 inline bool harmless_extension(const std::string& e) { return e == "KHR_xmp" || e == "KHR_xmp_json_ld"; }

@@ -1,11 +1,13 @@
 // prism/io/gltf/images.hpp — a glTF file's images: the encoded bytes kept
 // while tinygltf parses (its image loader callback, defer_image), checked to
 // be whole PNG or JPEG files and decoded once each, in parallel, through
-// io/image_io.hpp's decode_image. A failed image is an error only when a
-// texture uses it (materials.hpp).
+// io/image_io.hpp's decode_image; WebP files (EXT_texture_webp) through
+// Debian's libwebp when prism::gltf found it (PRISM_HAS_WEBP). A failed image
+// is an error only when a texture uses it (materials.hpp).
 #pragma once
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <exception>
@@ -18,6 +20,9 @@
 #include <tiny_gltf.h>
 #include "prism/io/image_io.hpp"
 #include "prism/textures/image.hpp"
+#if defined(PRISM_HAS_WEBP)
+#include <webp/decode.h>
+#endif
 
 namespace prism::gltf_detail {
 
@@ -59,10 +64,16 @@ struct Images {
   size_t count = 0, bytes = 0;                               // decoded images and their bytes
 };
 
-// glTF images are PNG or JPEG; stb_image would also guess at BMP, GIF, TGA,
-// PSD, HDR, PIC and PNM. Checks the signature, and that a PNG's chunks and
-// a JPEG's end-of-image marker are all there, so stb_image never decodes a
-// truncated file (it reads past the end as zeros).
+// A RIFF container holding a WebP image.
+inline bool is_webp(const std::vector<unsigned char>& b) {
+  return b.size() >= 12 && std::memcmp(b.data(), "RIFF", 4) == 0 && std::memcmp(b.data() + 8, "WEBP", 4) == 0;
+}
+
+// glTF images are PNG or JPEG (or WebP, EXT_texture_webp); stb_image would
+// also guess at BMP, GIF, TGA, PSD, HDR, PIC and PNM. Checks the signature,
+// and that a PNG's chunks and a JPEG's end-of-image marker are all there, so
+// stb_image never decodes a truncated file (it reads past the end as zeros);
+// a WebP file's RIFF size must fit in the bytes.
 inline std::string image_format_problem(const std::vector<unsigned char>& b) {
   static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (b.size() >= 8 && std::memcmp(b.data(), png, 8) == 0) {
@@ -82,8 +93,48 @@ inline std::string image_format_problem(const std::vector<unsigned char>& b) {
       if (b[k - 1] == 0xFF && b[k] == 0xD9) return {};
     return "truncated JPEG (no end-of-image marker)";
   }
-  return "unsupported image format (glTF images are PNG or JPEG)";
+  if (is_webp(b)) {
+    size_t riff = size_t(b[4]) | size_t(b[5]) << 8 | size_t(b[6]) << 16 | size_t(b[7]) << 24;
+    if (riff + 8 > b.size()) return "truncated WebP (the RIFF header promises " + std::to_string(riff + 8) + " bytes)";
+#if defined(PRISM_HAS_WEBP)
+    return {};
+#else
+    return "a WebP image, but prism::gltf was built without libwebp (EXT_texture_webp; Debian: libwebp-dev)";
+#endif
+  }
+  return "unsupported image format (glTF images are PNG or JPEG, or WebP with EXT_texture_webp)";
 }
+
+#if defined(PRISM_HAS_WEBP)
+// A WebP file as 8-bit RGB, or RGBA when it has alpha, through libwebp.
+inline DecodedImage decode_webp(const std::vector<unsigned char>& b, int max_pixels_log2) {
+  DecodedImage out;
+  WebPBitstreamFeatures f;
+  if (WebPGetFeatures(b.data(), b.size(), &f) != VP8_STATUS_OK || f.width <= 0 || f.height <= 0) {
+    out.error = "not a valid WebP image";
+    return out;
+  }
+  if (double(f.width) * double(f.height) > std::ldexp(1.0, max_pixels_log2)) {
+    out.error = std::to_string(f.width) + " x " + std::to_string(f.height) + " pixels is too large (at most 2^" +
+                std::to_string(max_pixels_log2) + " pixels)";
+    out.over_limit = true;
+    return out;
+  }
+  out.channels = f.has_alpha ? 4 : 3;
+  const size_t stride = size_t(f.width) * size_t(out.channels);
+  out.u8.resize(stride * size_t(f.height));
+  const uint8_t* ok = f.has_alpha ? WebPDecodeRGBAInto(b.data(), b.size(), out.u8.data(), out.u8.size(), int(stride))
+                                  : WebPDecodeRGBInto(b.data(), b.size(), out.u8.data(), out.u8.size(), int(stride));
+  if (!ok) {
+    out.u8.clear();
+    out.error = "libwebp cannot decode the WebP image";
+    return out;
+  }
+  out.width = f.width;
+  out.height = f.height;
+  return out;
+}
+#endif
 
 // Decodes every referenced image once, on all cores; 16-bit PNGs stay 16-bit
 // unless every value fits 8 bits.
@@ -111,7 +162,12 @@ inline Images decode_images(const tinygltf::Model& model, PendingImages& pending
       errors[i] = image_format_problem(bytes);
       if (!errors[i].empty()) continue;
       try {
+#if defined(PRISM_HAS_WEBP)
+        DecodedImage px = is_webp(bytes) ? decode_webp(bytes, 28)
+                                         : decode_image(bytes.data(), bytes.size(), {.max_pixels_log2 = 28});
+#else
         DecodedImage px = decode_image(bytes.data(), bytes.size(), {.max_pixels_log2 = 28});
+#endif
         if (!px.error.empty()) {
           errors[i] = px.over_limit ? px.error : "cannot decode: " + px.error;
           continue;

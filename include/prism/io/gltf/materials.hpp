@@ -233,8 +233,16 @@ class Materials {
     const auto& tex = m_doc.model.textures[size_t(r.index)];
     std::string tw = idx("textures", r.index);
     int source = tex.source;
+#if defined(PRISM_HAS_WEBP)
+    // EXT_texture_webp: its WebP image, in preference to the fallback.
+    if (const auto* webp = ext(tex.extensions, "EXT_texture_webp")) {
+      source = as_index(number(webp, "source", -1));
+      m_doc.check_index(source, m_doc.model.images.size(), tw + ".extensions.EXT_texture_webp.source", "image");
+    }
+#endif
     if (source == -1) {
-      m_doc.warn(tw + ": no source image (extensions such as KHR_texture_basisu are not supported): texture ignored");
+      m_doc.warn(tw + ": no source image that prism can decode (a KHR_texture_basisu" +
+                 std::string(webp_decoder ? "" : " or EXT_texture_webp") + " image without a fallback): texture ignored");
       return std::nullopt;
     }
     m_doc.check_index(source, m_doc.model.images.size(), tw + ".source", "image");
