@@ -1,7 +1,9 @@
 // glTF extensions that change which material a surface gets or what it does
 // with light: KHR_materials_unlit, KHR_materials_variants, the fallback
-// rules of KHR_texture_basisu and EXT_texture_webp (WebP images through
-// libwebp, encoded losslessly here so that every texel is known). Boxes with one material are written in code
+// rules of KHR_texture_basisu, EXT_texture_webp (WebP images through
+// libwebp, encoded losslessly here so that every texel is known) and
+// KHR_draco_mesh_compression (the shared Draco twins against their plain
+// files). Boxes with one material are written in code
 // (tests/support/gltf_json.hpp); the shared UnlitTest and
 // MaterialsVariantsShoe models are loaded when ../shared is present.
 //
@@ -18,6 +20,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <set>
 #include <nlohmann/json.hpp>
 #include <stb/stb_image.h>
@@ -384,8 +388,10 @@ std::string tmp_dir() {
 
 }  // namespace
 
+// One test name in either build (ctest lists the names from the source):
+// with libwebp the WebP texels, without it the fallback and the error.
+TEST_CASE("EXT_texture_webp: the WebP image texel for texel, else the fallback or an error", "[gltf][webp]") {
 #if defined(PRISM_HAS_WEBP)
-TEST_CASE("EXT_texture_webp: the WebP image, texel for texel, in preference to the fallback", "[gltf][webp]") {
   std::string dir = tmp_dir();
   // A 3 x 2 lossless WebP, every texel different; and one with alpha (none 0:
   // the lossless encoder drops the colour of fully transparent texels).
@@ -448,9 +454,7 @@ TEST_CASE("EXT_texture_webp: the WebP image, texel for texel, in preference to t
   e = load_error("garbage.webp", garbage);
   CHECK(e.find("images[1] ('garbage.webp')") != std::string::npos);
   CHECK(e.find("WebP") != std::string::npos);
-}
 #else
-TEST_CASE("EXT_texture_webp without libwebp: the fallback when optional, an error when required", "[gltf][webp]") {
   tmp_dir();
   auto g = load_gltf<RGB>(write_temp("webp.gltf", webp_box(true, true, false, "missing.webp")));
   CHECK(!g.warnings.empty());
@@ -461,7 +465,154 @@ TEST_CASE("EXT_texture_webp without libwebp: the fallback when optional, an erro
     e = err.what();
   }
   CHECK(e.find("EXT_texture_webp") != std::string::npos);
-}
 #endif
+}
+
+namespace {
+
+// The world-space triangles of a loaded scene, as centroids and the three
+// corners, for comparing a compressed twin with its plain file whatever the
+// order of vertices and triangles.
+struct Tri {
+  std::array<double, 3> c;
+  std::array<std::array<double, 3>, 3> v;
+};
+template <class G>
+std::vector<Tri> world_triangles(const G& g) {
+  std::vector<Tri> out;
+  const auto& meshes = g.scene.accel().meshes();
+  for (const auto& m : meshes)
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      Tri tri{};
+      for (int k = 0; k < 3; ++k) {
+        const Point3f& p = m.positions[m.indices[t + size_t(k)]];
+        tri.v[size_t(k)] = {p.x, p.y, p.z};
+        for (int a = 0; a < 3; ++a) tri.c[size_t(a)] += tri.v[size_t(k)][size_t(a)] / 3;
+      }
+      out.push_back(tri);
+    }
+  return out;
+}
+
+// Each triangle of `twin` has a triangle of `plain` whose centroid lies
+// within `tol` per axis; returns the largest such distance (or infinity).
+[[maybe_unused]] double worst_match(const std::vector<Tri>& twin, const std::vector<Tri>& plain, double tol) {
+  // A grid of cell `tol` over the plain centroids.
+  std::map<std::array<long, 3>, std::vector<size_t>> grid;
+  auto cell = [&](const std::array<double, 3>& c) {
+    return std::array<long, 3>{long(std::floor(c[0] / tol)), long(std::floor(c[1] / tol)), long(std::floor(c[2] / tol))};
+  };
+  for (size_t i = 0; i < plain.size(); ++i) grid[cell(plain[i].c)].push_back(i);
+  double worst = 0;
+  for (const Tri& t : twin) {
+    auto c = cell(t.c);
+    double best = std::numeric_limits<double>::infinity();
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dz = -1; dz <= 1; ++dz) {
+          auto f = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (f == grid.end()) continue;
+          for (size_t i : f->second) {
+            double d = 0;
+            for (int a = 0; a < 3; ++a) d = std::max(d, std::abs(plain[i].c[size_t(a)] - t.c[size_t(a)]));
+            best = std::min(best, d);
+          }
+        }
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+}  // namespace
+
+// Draco quantizes positions to q bits over the mesh's bounding box (the
+// Draco encoder's and gltf-pipeline's default is q = 11 or more): a vertex
+// moves by at most half a step, extent / 2^(q+1), per axis, and so does a
+// centroid. Tolerance: one step at 11 bits, extent / 2^11.
+TEST_CASE("KHR_draco_mesh_compression: the Draco twins give the plain files' triangles", "[gltf][draco]") {
+#if defined(PRISM_HAS_DRACO)
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  for (const char* model : {"CesiumMan/glTF-Draco/CesiumMan.gltf", "MorphPrimitivesTest/glTF-Draco/MorphPrimitivesTest.gltf"}) {
+    std::string name = model;
+    std::string plain_path = scenes_dir + name.substr(0, name.find('/')) + "/glTF-Binary/" +
+                             name.substr(name.rfind('/') + 1, name.rfind('.') - name.rfind('/') - 1) + ".glb";
+    INFO(model << " against " << plain_path);
+    auto twin = load_gltf<RGB>(scenes_dir + model);
+    auto plain = load_gltf<RGB>(plain_path);
+    for (const auto& w : twin.warnings) CHECK(w.find("draco") == std::string::npos);
+    CHECK(twin.mesh_triangles == plain.mesh_triangles);
+    CHECK(twin.scene_triangles == plain.scene_triangles);
+    auto a = world_triangles(twin), b = world_triangles(plain);
+    REQUIRE(a.size() == b.size());
+    Vector3f extent = plain.bounds.max - plain.bounds.min;
+    double tol = std::max({extent.x, extent.y, extent.z}) / 2048.0;
+    double worst = worst_match(a, b, tol);
+    INFO("worst centroid distance " << worst << ", tolerance " << tol);
+    CHECK(worst <= tol);
+    CHECK(worst_match(b, a, tol) <= tol);  // and the other way: no triangle lost
+  }
+#else
+  // Without libdraco the extension (always required) is refused by name.
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  std::string e;
+  try {
+    load_gltf<RGB>(scenes_dir + "CesiumMan/glTF-Draco/CesiumMan.gltf");
+  } catch (const Error& err) {
+    e = err.what();
+  }
+  CHECK(e.find("'KHR_draco_mesh_compression' is required") != std::string::npos);
+#endif
+}
+
+TEST_CASE("KHR_draco_mesh_compression: bad Draco data is an error naming the primitive", "[gltf][draco]") {
+#if defined(PRISM_HAS_DRACO)
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  std::string src = scenes_dir + "CesiumMan/glTF-Draco/";
+  std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_draco";
+  std::filesystem::create_directories(dir);
+  json j = json::parse(std::ifstream(src + "CesiumMan.gltf"));
+  for (const char* f : {"CesiumMan_data.bin", "CesiumMan_img0.jpg"})
+    std::filesystem::copy_file(src + f, dir + "/" + f, std::filesystem::copy_options::overwrite_existing);
+  const auto& prim_ext = j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"];
+  int view = prim_ext["bufferView"];
+  auto load_error = [&](const json& g) {
+    std::ofstream(dir + "/bad.gltf") << g.dump();
+    try {
+      load_gltf<RGB>(dir + "/bad.gltf");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  {  // the compressed bytes overwritten (a copy of the buffer with the view's bytes zeroed)
+    std::ifstream in(src + "CesiumMan_data.bin", std::ios::binary);
+    std::vector<char> bin((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    size_t off = j["bufferViews"][size_t(view)].value("byteOffset", 0);
+    size_t len = j["bufferViews"][size_t(view)]["byteLength"];
+    for (size_t i = off + 8; i < off + len; ++i) bin[i] = char(0xa5);
+    std::ofstream(dir + "/zeroed.bin", std::ios::binary).write(bin.data(), std::streamsize(bin.size()));
+    json g = j;
+    g["buffers"][0]["uri"] = "zeroed.bin";
+    std::string e = load_error(g);
+    INFO(e);
+    CHECK(e.find("bad.gltf: meshes[0].primitives[0].extensions.KHR_draco_mesh_compression") != std::string::npos);
+  }
+  {
+    json g = j;
+    g["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"] = 99;
+    std::string e = load_error(g);
+    CHECK(e.find("KHR_draco_mesh_compression.bufferView: bufferView index 99 out of range") != std::string::npos);
+  }
+  {
+    json g = j;
+    g["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"]["POSITION"] = 42;
+    std::string e = load_error(g);
+    CHECK(e.find("KHR_draco_mesh_compression.attributes.POSITION: the Draco data has no attribute") !=
+          std::string::npos);
+  }
+#else
+  SUCCEED("prism::gltf was built without libdraco: nothing to decode");
+#endif
+}
 
 }  // namespace extensions_test

@@ -71,6 +71,13 @@ inline constexpr bool webp_decoder = true;
 inline constexpr bool webp_decoder = false;
 #endif
 
+// Whether Draco-compressed meshes decode (KHR_draco_mesh_compression).
+#if defined(PRISM_HAS_DRACO)
+inline constexpr bool draco_decoder = true;
+#else
+inline constexpr bool draco_decoder = false;
+#endif
+
 // The extensions this loader honours (others in extensionsRequired are an
 // error; in extensionsUsed, one warning each).
 inline bool supported_extension(const std::string& e) {
@@ -80,7 +87,7 @@ inline bool supported_extension(const std::string& e) {
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};
   for (const char* k : known)
     if (e == k) return true;
-  return webp_decoder && e == "EXT_texture_webp";
+  return (webp_decoder && e == "EXT_texture_webp") || (draco_decoder && e == "KHR_draco_mesh_compression");
 }
 // Extensions that change nothing a path tracer renders.
 inline bool harmless_extension(const std::string& e) { return e == "KHR_xmp" || e == "KHR_xmp_json_ld"; }
@@ -142,11 +149,17 @@ inline std::string url_decode(const std::string& s) {
 
 // What tinygltf checks with a message naming no element, checked first
 // here: external buffer files, and the indices it follows while parsing.
-// A JSON syntax error is left to tinygltf to report.
-inline void preflight(const Document& doc, const char* text, size_t size, const std::string& base_dir) {
+// A JSON syntax error is left to tinygltf to report. Returns the JSON to
+// parse instead when it had to be changed (else empty): tinygltf, built
+// without Draco, refuses an index accessor with no bufferView, which is how
+// KHR_draco_mesh_compression writes it, so such an accessor gets the
+// primitive's Draco bufferView (meshes.hpp decodes the indices from there
+// and never reads the accessor's bytes).
+inline std::string preflight(const Document& doc, const char* text, size_t size, const std::string& base_dir) {
   using json = nlohmann::json;
   json j = json::parse(text, text + size, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return;
+  if (j.is_discarded() || !j.is_object()) return {};
+  bool changed = false;
   auto array = [&](const char* key) {
     auto it = j.find(key);
     return it != j.end() && it->is_array() ? &*it : nullptr;
@@ -198,8 +211,17 @@ inline void preflight(const Document& doc, const char* text, size_t size, const 
         std::string where = pw + ".indices";
         int64_t a = integer(prim, "indices", -1);
         check(a, length("accessors"), where, "accessor");
-        const json& acc = (*array("accessors"))[size_t(a)];
+        json& acc = (*array("accessors"))[size_t(a)];
         int64_t v = acc.is_object() ? integer(acc, "bufferView", -1) : -1;
+        if (v < 0 && draco_decoder && acc.is_object() && prim.contains("extensions") && prim["extensions"].is_object() &&
+            prim["extensions"].contains("KHR_draco_mesh_compression")) {
+          const json& d = prim["extensions"]["KHR_draco_mesh_compression"];
+          int64_t dv = d.is_object() ? integer(d, "bufferView", -1) : -1;
+          check(dv, length("bufferViews"), pw + ".extensions.KHR_draco_mesh_compression.bufferView", "bufferView");
+          acc["bufferView"] = dv;
+          v = dv;
+          changed = true;
+        }
         if (v < 0) doc.fail(where + " (" + idx("accessors", int(a)) + ")", "has no bufferView (indices need one)");
         check(v, length("bufferViews"), where + " (" + idx("accessors", int(a)) + ").bufferView", "bufferView");
       }
@@ -232,6 +254,7 @@ inline void preflight(const Document& doc, const char* text, size_t size, const 
       check(view.is_object() ? integer(view, "buffer", -1) : -1, length("buffers"),
             idx("bufferViews", int(v)) + ".buffer", "buffer");
     }
+  return changed ? j.dump() : std::string();
 }
 
 // Reads doc.path into doc.model (tinygltf), after the container and
@@ -259,7 +282,25 @@ inline void load_model(Document& doc, PendingImages& pending) {
   std::string base_dir = std::filesystem::path(doc.path).parent_path().string();
   size_t json_at = 0, json_size = file.size();
   if (binary) check_glb(doc, file, json_at, json_size);
-  preflight(doc, reinterpret_cast<const char*>(file.data()) + json_at, json_size, base_dir);
+  std::string patched = preflight(doc, reinterpret_cast<const char*>(file.data()) + json_at, json_size, base_dir);
+  if (!patched.empty()) {
+    if (!binary) {
+      file.assign(patched.begin(), patched.end());
+    } else {  // the same GLB with the new JSON chunk (padded with spaces to 4 bytes)
+      while (patched.size() % 4) patched += ' ';
+      std::vector<unsigned char> glb(file.begin(), file.begin() + 12);
+      auto put32 = [&](size_t at, uint32_t v) {
+        for (int k = 0; k < 4; ++k) glb[at + size_t(k)] = (unsigned char)(v >> (8 * k));
+      };
+      glb.resize(20);
+      put32(12, uint32_t(patched.size()));
+      std::memcpy(glb.data() + 16, "JSON", 4);
+      glb.insert(glb.end(), patched.begin(), patched.end());
+      glb.insert(glb.end(), file.begin() + std::ptrdiff_t(json_at + json_size), file.end());
+      put32(8, uint32_t(glb.size()));
+      file = std::move(glb);
+    }
+  }
 
   tinygltf::TinyGLTF loader;
   pending.model = &doc.model;

@@ -1,14 +1,23 @@
 // prism/io/gltf/meshes.hpp — glTF mesh primitives as prism TriangleMeshes:
 // POSITION, indices (strips and fans converted to triangles), NORMAL,
 // TEXCOORD_0/1, TANGENT and COLOR_0, each read through accessors.hpp and
-// checked; and the triangle counts the loader reports.
+// checked, or decoded from KHR_draco_mesh_compression through Debian's
+// libdraco when prism::gltf found it (PRISM_HAS_DRACO); and the triangle
+// counts the loader reports.
 #pragma once
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 #include <tiny_gltf.h>
+#if defined(PRISM_HAS_DRACO)
+#include <draco/compression/decode.h>
+#endif
 #include "prism/geometry/triangle.hpp"
 #include "prism/io/gltf/accessors.hpp"
 #include "prism/io/gltf/container.hpp"
@@ -46,14 +55,94 @@ inline std::vector<size_t> mesh_triangle_counts(const tinygltf::Model& model) {
   return out;
 }
 
+// A KHR_draco_mesh_compression primitive, decoded: its vertex count, its
+// triangles, and the attributes the extension maps, by glTF name (values
+// as doubles, integers normalised where the encoder marked them so).
+struct DecodedPrimitive {
+  size_t vertices = 0;
+  std::vector<uint32_t> indices;
+  std::map<std::string, std::pair<int, std::vector<double>>> attributes;  // components, values
+};
+
+#if defined(PRISM_HAS_DRACO)
+inline std::optional<DecodedPrimitive> decode_draco(const Document& doc, const tinygltf::Primitive& prim,
+                                                    const std::string& where) {
+  const auto* e = ext(prim.extensions, "KHR_draco_mesh_compression");
+  if (!e) return std::nullopt;
+  const std::string ew = where + ".extensions.KHR_draco_mesh_compression";
+  int bv = as_index(number(e, "bufferView", -1));
+  doc.check_index(bv, doc.model.bufferViews.size(), ew + ".bufferView", "bufferView");
+  const auto& view = doc.model.bufferViews[size_t(bv)];
+  doc.check_index(view.buffer, doc.model.buffers.size(), idx("bufferViews", bv) + ".buffer", "buffer");
+  const auto& bytes = doc.model.buffers[size_t(view.buffer)].data;
+  if (view.byteOffset > bytes.size() || view.byteLength > bytes.size() - view.byteOffset)
+    doc.fail(idx("bufferViews", bv), "byte range runs past the end of buffers[" + std::to_string(view.buffer) + "]");
+  draco::DecoderBuffer in;
+  in.Init(reinterpret_cast<const char*>(bytes.data() + view.byteOffset), view.byteLength);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&in);
+  if (!decoded.ok() || !decoded.value())
+    doc.fail(ew, "Draco cannot decode " + idx("bufferViews", bv) +
+                     (decoded.ok() ? std::string() : ": " + decoded.status().error_msg_string()));
+  std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
+  DecodedPrimitive out;
+  out.vertices = mesh->num_points();
+  out.indices.reserve(size_t(mesh->num_faces()) * 3);
+  for (uint32_t f = 0; f < mesh->num_faces(); ++f) {
+    const auto& face = mesh->face(draco::FaceIndex(f));
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = face[k].value();
+      if (v >= out.vertices) doc.fail(ew, "Draco face " + std::to_string(f) + " indexes past its " +
+                                              std::to_string(out.vertices) + " points");
+      out.indices.push_back(v);
+    }
+  }
+  if (!e->Has("attributes") || !e->Get("attributes").IsObject()) doc.fail(ew + ".attributes", "must be an object");
+  const auto& attrs = e->Get("attributes");
+  for (const auto& name : attrs.Keys()) {
+    const auto& id_value = attrs.Get(name);
+    int id = as_index(id_value.IsNumber() ? id_value.GetNumberAsDouble() : -1.0);
+    const draco::PointAttribute* a = id >= 0 ? mesh->GetAttributeByUniqueId(uint32_t(id)) : nullptr;
+    if (!a) doc.fail(ew + ".attributes." + name, "the Draco data has no attribute with this id");
+    const int comps = a->num_components();
+    std::vector<double> values(out.vertices * size_t(comps));
+    for (uint32_t i = 0; i < out.vertices; ++i) {
+      auto value = a->mapped_index(draco::PointIndex(i));
+      if (value.value() >= a->size() || !a->ConvertValue<double>(value, int8_t(comps), &values[size_t(i) * size_t(comps)]))
+        doc.fail(ew + ".attributes." + name, "the Draco value of point " + std::to_string(i) + " cannot be read");
+    }
+    out.attributes[name] = {comps, std::move(values)};
+  }
+  return out;
+}
+#endif
+
 // The prism mesh of a triangle primitive (TRIANGLES, TRIANGLE_STRIP or
 // TRIANGLE_FAN; strips and fans become triangles), its attributes checked.
 inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primitive& prim, const std::string& where) {
   TriangleMesh tm;
+  std::optional<DecodedPrimitive> draco;
+#if defined(PRISM_HAS_DRACO)
+  draco = decode_draco(doc, prim, where);
+#endif
+  // An attribute's values: from the Draco data where the extension maps it,
+  // else from its accessor.
+  auto read = [&](const std::string& name, int accessor, const std::string& aw, int comps) {
+    if (draco) {
+      auto found = draco->attributes.find(name);
+      if (found != draco->attributes.end()) {
+        if (found->second.first != comps)
+          doc.fail(aw, "the Draco attribute has " + std::to_string(found->second.first) + " components, " +
+                           std::to_string(comps) + " expected");
+        return found->second.second;
+      }
+    }
+    return read_accessor(doc, accessor, aw, comps);
+  };
   auto it = prim.attributes.find("POSITION");
   if (it == prim.attributes.end()) doc.fail(where + ".attributes", "has no POSITION");
   std::string pw = where + ".attributes.POSITION";
-  auto pos = read_accessor(doc, it->second, pw, 3);
+  auto pos = read("POSITION", it->second, pw, 3);
   size_t nv = pos.size() / 3;
   tm.positions.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
@@ -65,7 +154,11 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
   }
   // Indices (or the implicit 0..n-1), then strips and fans to triangles.
   std::vector<uint32_t> idxs;
-  if (prim.indices != -1) {
+  int mode = prim.mode;
+  if (draco) {  // decoded as a triangle list (from TRIANGLES or TRIANGLE_STRIP)
+    idxs = std::move(draco->indices);
+    mode = TINYGLTF_MODE_TRIANGLES;
+  } else if (prim.indices != -1) {
     auto raw = read_accessor(doc, prim.indices, where + ".indices", 1,
                              {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                               TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
@@ -80,10 +173,10 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
     idxs.resize(nv);
     for (size_t i = 0; i < nv; ++i) idxs[i] = uint32_t(i);
   }
-  if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
     idxs.resize(idxs.size() / 3 * 3);
     tm.indices = std::move(idxs);
-  } else if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
     for (size_t i = 2; i < idxs.size(); ++i) {
       // Every other triangle swaps two vertices to keep the winding.
       if (i % 2 == 0) tm.indices.insert(tm.indices.end(), {idxs[i - 2], idxs[i - 1], idxs[i]});
@@ -97,7 +190,7 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
     auto a = prim.attributes.find(name);
     if (a == prim.attributes.end()) return;
     std::string aw = where + ".attributes." + name;
-    auto v = read_accessor(doc, a->second, aw, comps);
+    auto v = read(name, a->second, aw, comps);
     if (v.size() / size_t(comps) != nv)
       doc.fail(aw, "has " + std::to_string(v.size() / size_t(comps)) + " elements, POSITION has " + std::to_string(nv));
     for (double d : v)

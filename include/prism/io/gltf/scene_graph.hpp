@@ -472,7 +472,10 @@ class Loader {
 
 // The camera for a scene without one: the bounds' centre seen from +z
 // (glTF's front), the bounding sphere framed with a 40 degree vertical field
-// of view (narrower horizontally for portrait images).
+// of view (narrower horizontally for portrait images). A flat model that
+// +z would see edge-on is seen from 30 degrees above (flat in y, a ground
+// plane) or 45 degrees to the side (flat in x) instead: flat means thinner
+// than a thousandth of its largest extent.
 inline PerspectiveCamera gltf_framing_camera(const Bounds3f& bounds, int width, int height, Float lens_radius = 0,
                                              Float focus_distance = 1) {
   Bounds3f b = bounds.empty() ? Bounds3f(Point3f(0, 0, 0)) : bounds;
@@ -482,7 +485,11 @@ inline PerspectiveCamera gltf_framing_camera(const Bounds3f& bounds, int width, 
   Float aspect = Float(width) / Float(height);
   Float half = std::min(fov / 2, std::atan(std::tan(fov / 2) * aspect));
   Float dist = r / std::sin(half) * Float(1.05);
-  Transform to_world = look_at_camera_to_world(c + Vector3f(0, 0, dist), c, Vector3f(0, 1, 0));
+  Vector3f e = b.max - b.min, dir(0, 0, 1);
+  Float largest = std::max({e.x, e.y, e.z});
+  if (e.y <= largest * Float(1e-3)) dir = Vector3f(0, Float(0.5), Float(0.8660254));
+  else if (e.x <= largest * Float(1e-3)) dir = Vector3f(Float(0.70710678), 0, Float(0.70710678));
+  Transform to_world = look_at_camera_to_world(c + dir * dist, c, Vector3f(0, 1, 0));
   return PerspectiveCamera(to_world, fov, width, height, lens_radius, focus_distance);
 }
 
