@@ -193,7 +193,7 @@ TEST_CASE("conductor white furnace: a lossless mirror reflects 1, rough ones the
   // samples in [0, 1] (reference_physics::bounded_sigma), z = sidak_z(1e-3, 32) =
   // 4.16 for the 32 comparisons (4 alphas x 4 angles x RGB and spectral): a
   // correct model fails with probability 1e-3 at most. alpha is the GGX
-  // width (docs/bxdfs.md), so alpha = 1, 0 deg is 1 - ln 2.
+  // width (docs/microfacets.md), so alpha = 1, 0 deg is 1 - ln 2.
   const double z = reference_physics::sidak_z(1e-3, 32);
   PCG32 rng(31, 5);
   std::ostringstream loss;

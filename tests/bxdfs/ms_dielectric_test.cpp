@@ -6,7 +6,7 @@
 // high-resolution quadrature, and without the switch it is measurably below
 // 1; sample() matches pdf() (chi-squared); the added lobe is reciprocal; no
 // NaN or Inf; the switch is off by default and leaves smooth interfaces
-// alone. One test prints the furnace table (docs/bxdfs.md).
+// alone. One test prints the furnace table (docs/microfacets.md).
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
@@ -80,7 +80,7 @@ TEST_CASE("dielectric multiple scattering: the table's size, build time and meas
               t.entries(), DielectricAlbedoTable::default_n_mu, DielectricAlbedoTable::default_n_alpha,
               DielectricAlbedoTable::default_n_eta, t.build_seconds(), n, worst, at.c_str(), sum / n);
   // The bound: the error measured at these points when the resolution was
-  // chosen (max 0.010577, mean 0.001928; docs/bxdfs.md), plus the reference's
+  // chosen (max 0.010577, mean 0.001928; docs/microfacets.md), plus the reference's
   // own uncertainty at the worst point, estimated as its change from 75025
   // to 121393 lattice points (the next Fibonacci number), plus 1e-5 for the
   // float rounding of the table across compilers. The table is
@@ -234,7 +234,7 @@ TEST_CASE("dielectric multiple scattering is finite at grazing angles and roughn
             Albedo al = albedo(b, wo, TransportMode::importance, 0, 2000, rng);
             CHECK(std::isfinite(al.mean));
             // The energy bound, except for eta = 1.0001, where the
-            // single-scattering lobe itself is ill-conditioned (docs/bxdfs.md)
+            // single-scattering lobe itself is ill-conditioned (docs/microfacets.md)
             // and does not have the albedo the table's quadrature gives.
             if (eta == 1.0001f) continue;
             double err = b.multiple_scattering() ? table_error(wo, TrowbridgeReitz(a, a).alpha_x(), eta) : 0.0;

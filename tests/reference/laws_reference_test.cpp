@@ -109,7 +109,7 @@ TEST_CASE("refraction obeys Snell's law: n1 sin_i = n2 sin_t, in the plane of in
 
 TEST_CASE("white rough conductor albedo equals its double quadrature, 1 - ln 2 at alpha = 1, normal incidence", "[reference][conductor][furnace]") {
   // F = 1 exactly (eta = 0, k = 1). alpha is the GGX width itself (not
-  // glTF's roughness, alpha = roughness^2: docs/bxdfs.md). Each estimate
+  // glTF's roughness, alpha = roughness^2: docs/metal_rough.md). Each estimate
   // averages f |cos| / pdf = G2 / G1 in [0, 1] over n samples; it may miss
   // ref::conductor_albedo (quadrature error < 5e-5, added) by z sigma, with
   // sigma = ref::bounded_sigma (the bound for samples in [0, 1]) and
@@ -131,7 +131,7 @@ TEST_CASE("white rough conductor albedo equals its double quadrature, 1 - ln 2 a
       CHECK(std::abs(mean - want) <= z * sigma + 5e-5);
       worst = std::max(worst, std::abs(mean - want) / sigma);
     }
-  // The closed form (docs/bxdfs.md): at normal incidence and alpha = 1,
+  // The closed form (docs/microfacets.md): at normal incidence and alpha = 1,
   // E = int_0^{1/2} (1 - 2 xi) / (1 - xi) d xi = 1 - ln 2.
   CHECK(ref::conductor_albedo(0, 1) == Approx(1 - std::log(2.0)).epsilon(1e-12));
   ConductorBxDF<RGB> b(TrowbridgeReitz(1, 1), RGB(0), RGB(1));

@@ -14,7 +14,7 @@
 // exactly as eval() and pdf() do, so MIS sees the same numbers either way.
 //
 // The energy a rough conductor loses (multiple scattering is ignored) is in
-// docs/bxdfs.md; tests/bxdfs/conductor_test.cpp measures it.
+// docs/microfacets.md; tests/bxdfs/conductor_test.cpp measures it.
 #pragma once
 #include <array>
 #include <optional>

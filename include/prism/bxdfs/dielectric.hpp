@@ -116,7 +116,7 @@ inline std::optional<Refraction> refract_dielectric(const Vector3f& wi, Vector3f
 // leaves after one microfacet event) of the rough dielectric on the isotropic
 // Trowbridge–Reitz distribution, tabulated once (on first use, thread-safe)
 // for Kulla and Conty's energy compensation (DielectricBxDF's
-// enable_multiple_scattering(); docs/bxdfs.md).
+// enable_multiple_scattering(); docs/microfacets.md).
 // Axes: mu = |cos theta_o| uniform on [0, 1]; alpha = t^2 and the IOR by
 // x = (eta - 1) / (eta + 1) = x_max t^2 (eta from 1 to 4; F0 = x^2), t
 // uniform on [0, 1], denser where E changes fastest (small alpha, eta near
@@ -127,13 +127,13 @@ inline std::optional<Refraction> refract_dielectric(const Vector3f& wi, Vector3f
 // (refraction): a Fibonacci lattice of 377 points on the quintic warp
 // MicrofacetAlbedoTable uses (the integrand jumps along curves, where TIR
 // starts and where a direction crosses the horizon: there a lattice's error
-// is far smaller than a grid's of as many points; docs/bxdfs.md).
+// is far smaller than a grid's of as many points; docs/microfacets.md).
 // E_avg = 2 int E mu dmu is the exact integral of the piecewise-linear E(mu),
 // so the compensated lobe's albedo is 1 for the tabulated E exactly.
 class DielectricAlbedoTable {
  public:
   // Chosen by measuring against a 75025-point quadrature at off-grid points
-  // (tests/bxdfs/ms_dielectric_test.cpp prints the error; docs/bxdfs.md).
+  // (tests/bxdfs/ms_dielectric_test.cpp prints the error; docs/microfacets.md).
   static constexpr int default_n_mu = 32, default_n_alpha = 16, default_n_eta = 8;
   static constexpr long default_points = 377;
   static constexpr double x_max = 0.6;  // eta = 4

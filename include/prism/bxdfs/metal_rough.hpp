@@ -29,7 +29,7 @@
 // notes, normalize(V - 2 (N.L) N + L)). No 1/eta^2 factor: the light ends in
 // the medium it came from (BSDFSample::eta = 1).
 //
-// Where this departs from the spec's sample code, and why (docs/bxdfs.md):
+// Where this departs from the spec's sample code, and why (docs/metal_rough.md):
 // - Appendix B's fresnel_mix weighs the diffuse base by 1 - F(wo.wm). That
 //   is not energy conserving (the spec says so, "Coupling Diffuse and
 //   Specular Reflection"): at grazing incidence a smooth surface reflects

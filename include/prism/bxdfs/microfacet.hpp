@@ -14,7 +14,7 @@
 // the caller's choice (glTF: alpha = roughness^2); MicrofacetRoughness holds
 // alpha itself.
 //
-// The smooth threshold (docs/bxdfs.md): a distribution with
+// The smooth threshold (docs/microfacets.md): a distribution with
 // max(alpha_x, alpha_y) < smooth_alpha = 2^-12 is effectively_smooth(), and the
 // BxDFs replace its lobe with the exact specular (delta) lobe. The value is
 // sqrt(machine_epsilon), the scale at which float directions stop resolving
@@ -55,7 +55,7 @@ struct MicrofacetRoughness {
 };
 
 // The two visible-normal samplers. bench/bxdf_bench.cpp times them; the faster
-// is TrowbridgeReitz::default_vndf (docs/bxdfs.md has the figures).
+// is TrowbridgeReitz::default_vndf (docs/microfacets.md has the figures).
 enum class VNDFMethod {
   heitz2018,      // Heitz 2018, JCGT 7(4): projected-area disk warp
   spherical_caps  // Dupuy & Benyoub 2023, HPG: a spherical cap around the stretched view

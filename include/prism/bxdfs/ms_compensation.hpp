@@ -4,7 +4,7 @@
 //
 // A Torrance–Sparrow lobe counts only light that leaves after one bounce on
 // the microsurface; at roughness 1 a white (F = 1) conductor reflects only
-// ~60-90% of the light (docs/bxdfs.md). Kulla and Conty add a lobe
+// ~60-90% of the light (docs/microfacets.md). Kulla and Conty add a lobe
 //   f_ms(wo, wi) = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)),
 // where E(mu) is the single-scattering lobe's directional albedo for F = 1 and
 // E_avg = 2 int E(mu) mu dmu its cosine-weighted average: with F = 1 the sum

@@ -48,7 +48,7 @@ struct GltfOptions {
   // Cameras and punctual lights stay where they are at `time`.
   double shutter = 0;
   // Kulla-Conty energy compensation on every material's rough lobes
-  // (MetalRoughMaterial::multiple_scattering; docs/bxdfs.md). Off by default:
+  // (MetalRoughMaterial::multiple_scattering; docs/microfacets.md). Off by default:
   // glTF's reference viewers render single scattering.
   bool multiple_scattering = false;
   // KHR_materials_variants: the name of the material variant to load; empty:
