@@ -134,7 +134,7 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
         if (found->second.first != comps)
           doc.fail(aw, "the Draco attribute has " + std::to_string(found->second.first) + " components, " +
                            std::to_string(comps) + " expected");
-        return found->second.second;
+        return std::move(found->second.second);  // each attribute is read once
       }
     }
     return read_accessor(doc, accessor, aw, comps);
