@@ -2,7 +2,7 @@
 """Turns the "STABILITY |" lines the stability suite prints into the markdown
 table of docs/stability.md:
 
-    build/tests/prism_test_stability | python3 scripts/stability_table.py
+    build/tests/prism_test_renders '[stability]' | python3 scripts/stability_table.py
 """
 import sys
 
