@@ -24,11 +24,17 @@ fi
 
 flags=(-std=c++20 -g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined
        -fno-sanitize-recover=undefined -I"$root/include" -I/usr/include/stb)
-# WebP (EXT_texture_webp) through libwebp, as prism::gltf has it when found.
-webp_libs=()
+# WebP (EXT_texture_webp) through libwebp, as prism::gltf has it when found
+# (link_libs: the libraries of the optional decoders found).
+link_libs=()
 if pkg-config --exists libwebp 2>/dev/null; then
   flags+=(-DPRISM_HAS_WEBP=1 $(pkg-config --cflags libwebp))
-  read -r -a webp_libs <<<"$(pkg-config --libs libwebp)"
+  read -r -a link_libs <<<"$(pkg-config --libs libwebp)"
+fi
+# meshoptimizer (EXT_meshopt_compression), as prism::gltf has it when found.
+if [ -f /usr/include/meshoptimizer.h ]; then
+  flags+=(-DPRISM_HAS_MESHOPT=1)
+  link_libs+=(-lmeshoptimizer)
 fi
 bin="$out/gltf_fuzz"
 srcs=("$root/fuzz/gltf_fuzz.cpp" "$root/fuzz/tinygltf_impl.cpp" "$root/include/prism/io/gltf.hpp"
@@ -47,7 +53,7 @@ if [ $need = 1 ]; then
   fi
   "$cxx" "${flags[@]}" -c "$root/fuzz/gltf_fuzz.cpp" -o "$out/gltf_fuzz.o"
   if [ $impl != 0 ]; then wait $impl; fi
-  "$cxx" "${flags[@]}" "$out/gltf_fuzz.o" "$out/tinygltf_impl.o" -o "$bin" -pthread "${webp_libs[@]}"
+  "$cxx" "${flags[@]}" "$out/gltf_fuzz.o" "$out/tinygltf_impl.o" -o "$bin" -pthread "${link_libs[@]}"
 fi
 
 # Seeds: the small single-file models (GLB and data-URI glTF), once.
@@ -62,6 +68,8 @@ if [ -d "$shared" ] && [ -z "$(ls -A "$corpus")" ]; then
            TextureTransformTest/glTF/TextureTransformTest.gltf; do
     [ -f "$shared/$f" ] && cp "$shared/$f" "$corpus/$(echo "$f" | tr / _)"
   done
+  # A meshopt-compressed file (every filter): tests/gltf/data.
+  cp "$root/tests/gltf/data/CesiumMan.meshopt.glb" "$corpus/"
 fi
 
 cd "$out"

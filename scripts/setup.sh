@@ -5,7 +5,7 @@
 set -euo pipefail
 
 PRISM_PACKAGES=(g++ cmake ninja-build pkg-config catch2 libstb-dev libtinyexr-dev
-  libtinygltf-dev nlohmann-json3-dev libwebp-dev libdraco-dev libcli11-dev libopenmpi-dev openmpi-bin "$@")
+  libtinygltf-dev nlohmann-json3-dev libwebp-dev libdraco-dev libmeshoptimizer-dev libcli11-dev libopenmpi-dev openmpi-bin "$@")
 
 missing=()
 for p in "${PRISM_PACKAGES[@]}"; do

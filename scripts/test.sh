@@ -83,11 +83,14 @@ suite() {
   for t in "${needed[@]}"; do
     grep -q "^$t: " <<<"$targets" || { echo "test.sh: $t is not configured (prism::io or prism::gltf not found)"; return 1; }
   done
-  # libwebp and libdraco (setup.sh installs them) must have been found.
+  # libwebp, libdraco and libmeshoptimizer (setup.sh installs them) must have
+  # been found.
   grep -q -- "-DPRISM_HAS_WEBP=1" build/test/build.ninja ||
     { echo "test.sh: prism::gltf was configured without libwebp (EXT_texture_webp)"; return 1; }
   grep -q -- "-DPRISM_HAS_DRACO=1" build/test/build.ninja ||
     { echo "test.sh: prism::gltf was configured without draco (KHR_draco_mesh_compression)"; return 1; }
+  grep -q -- "-DPRISM_HAS_MESHOPT=1" build/test/build.ninja ||
+    { echo "test.sh: prism::gltf was configured without meshoptimizer (EXT_meshopt_compression)"; return 1; }
   # (Called from step's '||', where set -e does not stop a function.)
   cmake --build build/test || return 1
   cd build/test

@@ -37,19 +37,21 @@ inline std::string base64(const std::vector<unsigned char>& in) {
   return out;
 }
 
-// A glTF with one box [-0.5, 0.5]^2 x [0, d] (24 vertices with outward
-// normals, 36 uint16 indices, in a data URI) and one material given as JSON.
-inline json box_gltf(float d, const json& material, const std::vector<std::string>& extensions) {
+// The box [-0.5, 0.5]^2 x [0, d]: 24 vertices with outward normals, 36
+// indices, counter-clockwise seen from outside.
+struct BoxArrays {
   std::vector<float> pos, nrm;
   std::vector<uint16_t> idx;
+};
+inline BoxArrays box_arrays(float d) {
+  BoxArrays b;
   auto face = [&](std::array<float, 3> n, std::array<std::array<float, 3>, 4> v) {
-    auto base = uint16_t(pos.size() / 3);
+    auto base = uint16_t(b.pos.size() / 3);
     for (auto& p : v) {
-      pos.insert(pos.end(), p.begin(), p.end());
-      nrm.insert(nrm.end(), n.begin(), n.end());
+      b.pos.insert(b.pos.end(), p.begin(), p.end());
+      b.nrm.insert(b.nrm.end(), n.begin(), n.end());
     }
-    // v in counter-clockwise order seen from outside.
-    for (int k : {0, 1, 2, 0, 2, 3}) idx.push_back(uint16_t(base + k));
+    for (int k : {0, 1, 2, 0, 2, 3}) b.idx.push_back(uint16_t(base + k));
   };
   const float a = 0.5f;
   face({0, 0, 1}, {{{-a, -a, d}, {a, -a, d}, {a, a, d}, {-a, a, d}}});
@@ -58,6 +60,17 @@ inline json box_gltf(float d, const json& material, const std::vector<std::strin
   face({-1, 0, 0}, {{{-a, -a, 0}, {-a, -a, d}, {-a, a, d}, {-a, a, 0}}});
   face({0, 1, 0}, {{{-a, a, 0}, {-a, a, d}, {a, a, d}, {a, a, 0}}});
   face({0, -1, 0}, {{{-a, -a, 0}, {a, -a, 0}, {a, -a, d}, {-a, -a, d}}});
+  return b;
+}
+
+// A glTF with one box [-0.5, 0.5]^2 x [0, d] (box_arrays: positions, normals
+// and uint16 indices, in a data URI) and one material given as JSON.
+inline json box_gltf(float d, const json& material, const std::vector<std::string>& extensions) {
+  BoxArrays box = box_arrays(d);
+  const auto& pos = box.pos;
+  const auto& nrm = box.nrm;
+  const auto& idx = box.idx;
+  const float a = 0.5f;
   std::vector<unsigned char> bytes(pos.size() * 4 + nrm.size() * 4 + idx.size() * 2);
   std::memcpy(bytes.data(), pos.data(), pos.size() * 4);
   std::memcpy(bytes.data() + pos.size() * 4, nrm.data(), nrm.size() * 4);

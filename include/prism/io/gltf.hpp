@@ -20,7 +20,8 @@
 //   container.hpp    the file: .gltf or .glb, preflight and extension checks
 //   images.hpp       images decoded once each, in parallel (io/image_io.hpp)
 //   accessors.hpp    typed, bounds-checked accessor reads
-//   meshes.hpp       primitives as TriangleMeshes
+//   meshes.hpp       primitives as TriangleMeshes (and Draco's, decoded)
+//   meshopt.hpp      EXT_meshopt_compression's bufferViews, decoded
 //   materials.hpp    materials, textures, samplers, texture transforms
 //   animation.hpp    animation channels evaluated at a time
 //   scene_graph.hpp  GltfOptions, GltfCamera, GltfScene; nodes, instances,
@@ -37,6 +38,7 @@
 #include "prism/io/gltf/images.hpp"
 #include "prism/io/gltf/materials.hpp"
 #include "prism/io/gltf/meshes.hpp"
+#include "prism/io/gltf/meshopt.hpp"
 #include "prism/io/gltf/scene_graph.hpp"
 
 namespace prism {

@@ -78,6 +78,13 @@ inline constexpr bool draco_decoder = true;
 inline constexpr bool draco_decoder = false;
 #endif
 
+// Whether meshoptimizer-compressed bufferViews decode (EXT_meshopt_compression).
+#if defined(PRISM_HAS_MESHOPT)
+inline constexpr bool meshopt_decoder = true;
+#else
+inline constexpr bool meshopt_decoder = false;
+#endif
+
 // The extensions this loader honours (others in extensionsRequired are an
 // error; in extensionsUsed, one warning each).
 inline bool supported_extension(const std::string& e) {
@@ -87,7 +94,8 @@ inline bool supported_extension(const std::string& e) {
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};
   for (const char* k : known)
     if (e == k) return true;
-  return (webp_decoder && e == "EXT_texture_webp") || (draco_decoder && e == "KHR_draco_mesh_compression");
+  return (webp_decoder && e == "EXT_texture_webp") || (draco_decoder && e == "KHR_draco_mesh_compression") ||
+         (meshopt_decoder && e == "EXT_meshopt_compression");
 }
 // Extensions that change nothing a path tracer renders.
 inline bool harmless_extension(const std::string& e) { return e == "KHR_xmp" || e == "KHR_xmp_json_ld"; }
@@ -178,9 +186,23 @@ inline std::string preflight(const Document& doc, const char* text, size_t size,
       doc.fail(element, std::string(kind) + " index " + std::to_string(i) + " out of range (" + std::to_string(n) + " " +
                             kind + "s)");
   };
-  if (const json* buffers = array("buffers"))
+  if (json* buffers = array("buffers"))
     for (size_t b = 0; b < buffers->size(); ++b) {
-      const json& buf = (*buffers)[b];
+      json& buf = (*buffers)[b];
+      // An EXT_meshopt_compression fallback buffer may have no data and no
+      // uri, which tinygltf would take for the GLB's binary chunk (or
+      // refuse): it gets one byte of its own, and the bufferViews that
+      // refer to it are decoded into buffers of their own (meshopt.hpp).
+      if (buf.is_object() && !buf.contains("uri") && buf.contains("extensions") && buf["extensions"].is_object() &&
+          buf["extensions"].contains("EXT_meshopt_compression")) {
+        const json& m = buf["extensions"]["EXT_meshopt_compression"];
+        if (m.is_object() && m.contains("fallback") && m["fallback"] == true) {
+          buf["uri"] = "data:application/octet-stream;base64,AA==";
+          buf["byteLength"] = 1;
+          changed = true;
+          continue;
+        }
+      }
       if (!buf.is_object() || !buf.contains("uri") || !buf["uri"].is_string()) continue;
       std::string uri = buf["uri"].get<std::string>();
       if (uri.empty() || uri.rfind("data:", 0) == 0) continue;

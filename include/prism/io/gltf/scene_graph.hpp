@@ -28,6 +28,7 @@
 #include "prism/io/gltf/images.hpp"
 #include "prism/io/gltf/materials.hpp"
 #include "prism/io/gltf/meshes.hpp"
+#include "prism/io/gltf/meshopt.hpp"
 #include "prism/lights/punctual.hpp"
 #include "prism/math/animated_transform.hpp"
 #include "prism/math/bounds.hpp"
@@ -101,6 +102,7 @@ class Loader {
   GltfScene<S, Set> load() {
     load_model(m_doc, m_pending);
     check_extensions(m_doc);
+    decode_meshopt(m_doc);
     read_variants();
     m_images = decode_images(m_doc.model, m_pending);
     m_out.images = m_images.count;
