@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 #include <prism/io/gltf.hpp>
 #include <prism/prism.hpp>
+#include "support/reference_physics.hpp"
 
 namespace volume_test {
 
@@ -63,8 +64,10 @@ double closed_form(double n, double tau) {
 
 // Renders a small orthographic window, looking down -z, centred on (x, y),
 // under a uniform white environment, and checks the window's mean per
-// channel against expected within 4 sigma of the mean plus `bias` (pooled
-// over the window's 16 pixels of 64 samples). Without Russian roulette: the
+// channel against expected within z sigma of the mean plus `bias` (pooled
+// over the window's 16 pixels of 64 samples), z from Sidak's correction over
+// the caller's test case at a family-wise false-alarm rate of 10^-3
+// (sidak_z(1e-3, m), m = 3 channels x the windows it checks). Without Russian roulette: the
 // samples are then 1 (reflected off the top face) or the Beer–Lambert
 // product of the path inside, so the estimate is exact at ior 1 and has a
 // small variance otherwise (with roulette a sample is 0 or the throughput
@@ -72,7 +75,7 @@ double closed_form(double n, double tau) {
 // samples all survived shows a sample variance of 0). Every pixel must be finite.
 template <class S, class G>
 void check_window(G& g, Float x, Float y, Float half, const std::array<double, 3>& expected, double bias,
-                  const std::string& label) {
+                  double z, const std::string& label) {
   const int w = 4, h = 4;
   OrthographicCamera cam(look_at_camera_to_world({x, y, 10}, {x, y, 0}, {0, 1, 0}), 2 * half, w, h);
   Film film(w, h);
@@ -93,12 +96,12 @@ void check_window(G& g, Float x, Float y, Float half, const std::array<double, 3
       }
     double mean = sum / (w * h), sigma = std::sqrt(var) / (w * h);
     INFO(label << " channel " << c << ": " << mean << " expected " << expected[size_t(c)] << " sigma " << sigma);
-    CHECK(std::abs(mean - expected[size_t(c)]) <= 4 * sigma + bias);
+    CHECK(std::abs(mean - expected[size_t(c)]) <= z * sigma + bias);
   }
 }
 
 template <class S>
-void check_box(double ior, double d, std::array<double, 3> color, double distance, double bias) {
+void check_box(double ior, double d, std::array<double, 3> color, double distance, double bias, double z) {
   std::string path = write_temp("box.gltf", box_gltf(float(d), volume_material(ior, color, distance),
                                                      {"KHR_materials_transmission", "KHR_materials_ior",
                                                       "KHR_materials_volume"}));
@@ -111,27 +114,31 @@ void check_box(double ior, double d, std::array<double, 3> color, double distanc
   std::array<double, 3> expected;
   for (size_t c = 0; c < 3; ++c) expected[c] = closed_form(ior, std::pow(color[c], d / distance));
   INFO("ior " << ior << " thickness " << d << " distance " << distance);
-  check_window<S>(g, 0, 0, 0.3f, expected, bias, "box");
+  check_window<S>(g, 0, 0, 0.3f, expected, bias, z, "box");
 }
 
 }  // namespace
 
 TEST_CASE("glTF volume box transmits the Beer-Lambert closed form, RGB", "[gltf][volume]") {
   const std::array<double, 3> c{0.1, 0.5, 0.9};
-  check_box<RGB>(1.0, 1.0, c, 1.0, 1e-5);  // no refraction: exactly tau
-  check_box<RGB>(1.0, 0.5, c, 2.0, 1e-5);
-  check_box<RGB>(1.5, 1.0, c, 1.0, 1e-5);  // refracting, with inner reflections
-  check_box<RGB>(1.5, 2.0, c, 0.5, 1e-5);
-  check_box<RGB>(1.5, 1.0, {1, 1, 1}, std::numeric_limits<double>::infinity(), 1e-5);  // no absorption
+  // 5 boxes x 3 channels = 15 comparisons, one family at 10^-3: z = 3.99.
+  const double z = reference_physics::sidak_z(1e-3, 5 * 3);
+  check_box<RGB>(1.0, 1.0, c, 1.0, 1e-5, z);  // no refraction: exactly tau
+  check_box<RGB>(1.0, 0.5, c, 2.0, 1e-5, z);
+  check_box<RGB>(1.5, 1.0, c, 1.0, 1e-5, z);  // refracting, with inner reflections
+  check_box<RGB>(1.5, 2.0, c, 0.5, 1e-5, z);
+  check_box<RGB>(1.5, 1.0, {1, 1, 1}, std::numeric_limits<double>::infinity(), 1e-5, z);  // no absorption
 }
 
 // Spectral: the attenuation colour is uplifted and attenuated per wavelength,
 // and the power of a spectrum is not the spectrum of the power, so the film's
-// RGB is allowed 0.02 beside the 4 sigma (as tests/integrators/volume_test.cpp).
+// RGB is allowed 0.02 beside the z sigma (2 boxes x 3 channels = 6
+// comparisons at 10^-3: z = sidak_z(1e-3, 6) = 3.77).
 TEST_CASE("glTF volume box transmits the Beer-Lambert closed form, spectral", "[gltf][volume][spectral]") {
   const std::array<double, 3> c{0.3, 0.6, 0.9};
-  check_box<Spectral>(1.0, 1.0, c, 1.0, 0.02);
-  check_box<Spectral>(1.5, 1.0, c, 2.0, 0.02);
+  const double z = reference_physics::sidak_z(1e-3, 2 * 3);
+  check_box<Spectral>(1.0, 1.0, c, 1.0, 0.02, z);
+  check_box<Spectral>(1.5, 1.0, c, 2.0, 0.02, z);
 }
 
 TEST_CASE("glTF volume: thickness 0 stays thin-walled, bad attenuation values are errors", "[gltf][volume][validate]") {
@@ -270,6 +277,9 @@ TEST_CASE("AttenuationTest cubes follow the Beer-Lambert closed form in every ro
   g.scene.build();
   const std::array<double, 3> c{0.1, 0.5, 0.9};
   const double F0 = 0.04;
+  // 5 sizes x 5 windows x 3 channels = 75 comparisons, one family at 10^-3
+  // (Sidak): z = sidak_z(1e-3, 75) = 4.36.
+  const double z = reference_physics::sidak_z(1e-3, 5 * 5 * 3);
   for (const char* s : {"0.25", "0.50", "1.0", "1.5", "2.0"}) {
     double size = std::stod(s);
     std::array<double, 3> volume_expected, sample_expected;
@@ -283,11 +293,11 @@ TEST_CASE("AttenuationTest cubes follow the Beer-Lambert closed form in every ro
     const Float half = Float(std::min(0.05, size / 8));
     for (std::string row : {"R2_Block_", "R4_Block_", "R5_Block_"}) {
       auto t = translation.at(row + s);
-      check_window<RGB>(g, Float(t[0]), Float(t[1]), half, volume_expected, 1e-4, row + s);
+      check_window<RGB>(g, Float(t[0]), Float(t[1]), half, volume_expected, 1e-4, z, row + s);
     }
-    check_window<RGB>(g, Float(r2[0]), 0, half, volume_expected, 1e-4, std::string("R3 row, column ") + s);
+    check_window<RGB>(g, Float(r2[0]), 0, half, volume_expected, 1e-4, z, std::string("R3 row, column ") + s);
     auto t1 = translation.at(std::string("R1_Sample_") + s);
-    check_window<RGB>(g, Float(t1[0]), Float(t1[1]), half, sample_expected, 1e-4, std::string("R1_Sample_") + s);
+    check_window<RGB>(g, Float(t1[0]), Float(t1[1]), half, sample_expected, 1e-4, z, std::string("R1_Sample_") + s);
   }
 }
 

@@ -412,6 +412,53 @@ inline double normal_quantile_two_sided(double p) {
   }
   return (lo + hi) / 2;
 }
+// The regularized incomplete beta function I_x(a, b), by its continued
+// fraction (evaluated by the modified Lentz method; Press et al., Numerical
+// Recipes, 3rd ed., 2007, section 6.4), using the symmetry
+// I_x(a, b) = 1 - I_{1-x}(b, a) where the fraction converges slowly.
+inline double incomplete_beta(double x, double a, double b) {
+  if (x <= 0) return 0;
+  if (x >= 1) return 1;
+  if (x > (a + 1) / (a + b + 2)) return 1 - incomplete_beta(1 - x, b, a);
+  auto fraction = [&]() {
+    const double tiny = 1e-300;
+    double c = 1, d = 1 - (a + b) * x / (a + 1);
+    if (std::abs(d) < tiny) d = tiny;
+    d = 1 / d;
+    double h = d;
+    for (int m = 1; m <= 300; ++m) {
+      for (int pass = 0; pass < 2; ++pass) {
+        double num = pass == 0 ? m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m))
+                               : -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1));
+        d = 1 + num * d;
+        if (std::abs(d) < tiny) d = tiny;
+        c = 1 + num / c;
+        if (std::abs(c) < tiny) c = tiny;
+        d = 1 / d;
+        h *= d * c;
+      }
+    }
+    return h;
+  };
+  double front = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1 - x)) / a;
+  return front * fraction();
+}
+// The t such that |T| > t has probability p for Student's t with df degrees
+// of freedom (two-sided): P(|T| > t) = I_{df / (df + t^2)}(df / 2, 1 / 2),
+// solved by bisection.
+inline double student_t_quantile_two_sided(double p, double df) {
+  double lo = 0, hi = 1e4;
+  for (int i = 0; i < 200; ++i) {
+    double mid = (lo + hi) / 2;
+    (incomplete_beta(df / (df + mid * mid), df / 2, 0.5) > p ? lo : hi) = mid;
+  }
+  return (lo + hi) / 2;
+}
+// As sidak_z, for differences over an estimated standard error with df
+// degrees of freedom.
+inline double sidak_t(double family_alpha, int m, double df) {
+  return student_t_quantile_two_sided(1 - std::pow(1 - family_alpha, 1.0 / m), df);
+}
 // How many standard errors a Monte Carlo estimate may stray from the true
 // value when m such comparisons should all pass with probability
 // 1 - family_alpha: Sidak's per-comparison level 1 - (1 - family_alpha)^(1/m)
