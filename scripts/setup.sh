@@ -4,7 +4,7 @@
 # Usage: scripts/setup.sh [extra packages...]
 set -euo pipefail
 
-PRISM_PACKAGES=(g++ cmake ninja-build pkg-config catch2 libstb-dev libtinyexr-dev
+PRISM_PACKAGES=(g++ cmake ninja-build pkg-config python3 catch2 libstb-dev libtinyexr-dev
   libtinygltf-dev nlohmann-json3-dev libwebp-dev libdraco-dev libmeshoptimizer-dev libcli11-dev libopenmpi-dev openmpi-bin "$@")
 
 missing=()

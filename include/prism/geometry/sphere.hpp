@@ -17,6 +17,7 @@
 #pragma once
 #include <cmath>
 #include <optional>
+#include <utility>
 #include "prism/geometry/interaction.hpp"
 #include "prism/math/interval.hpp"
 

@@ -4,6 +4,7 @@
 // (area samples are converted by distance^2 / |cos theta_light|), except for
 // delta lights, whose pdf is 1 and which MIS never weighs.
 #pragma once
+#include <concepts>
 #include <optional>
 #include "prism/geometry/interaction.hpp"
 #include "prism/spectra/rgb.hpp"

@@ -2,6 +2,7 @@
 // Each operation returns an interval that contains every exact result for
 // operands inside its inputs (pbrt-v4 book, section 6.8.6).
 #pragma once
+#include <utility>
 #include "prism/math/float.hpp"
 
 namespace prism {

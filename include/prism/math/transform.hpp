@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <limits>
 #include <optional>
+#include <utility>
 #include "prism/math/bounds.hpp"
 #include "prism/math/frame.hpp"
 

@@ -5,6 +5,7 @@
 #pragma once
 #include <cassert>
 #include <cmath>
+#include <type_traits>
 #include "prism/math/float.hpp"
 
 namespace prism {

@@ -16,6 +16,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 #include "prism/cameras/orthographic.hpp"
 #include "prism/cameras/perspective.hpp"

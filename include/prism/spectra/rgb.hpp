@@ -5,6 +5,7 @@
 // wavelengths type is the empty RGBWavelengths, so signatures are identical.
 #pragma once
 #include <cmath>
+#include <concepts>
 #include <type_traits>
 #include "prism/math/float.hpp"
 

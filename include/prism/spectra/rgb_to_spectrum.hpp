@@ -61,6 +61,7 @@
 #include <span>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 #include "prism/error.hpp"
 #include "prism/spectra/rgb.hpp"
