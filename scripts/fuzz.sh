@@ -65,11 +65,13 @@ if [ -d "$shared" ] && [ -z "$(ls -A "$corpus")" ]; then
            TextureCoordinateTest/glTF-Binary/TextureCoordinateTest.glb \
            EmissiveStrengthTest/glTF-Binary/EmissiveStrengthTest.glb \
            OrientationTest/glTF-Binary/OrientationTest.glb AnimatedCube/glTF/AnimatedCube.gltf \
-           TextureTransformTest/glTF/TextureTransformTest.gltf; do
+           TextureTransformTest/glTF/TextureTransformTest.gltf AnimatedMorphCube/glTF-Binary/AnimatedMorphCube.glb; do
     [ -f "$shared/$f" ] && cp "$shared/$f" "$corpus/$(echo "$f" | tr / _)"
   done
   # A meshopt-compressed file (every filter): tests/gltf/data.
   cp "$root/tests/gltf/data/CesiumMan.meshopt.glb" "$corpus/"
+  # A skin and animated morph targets, small: tests/gltf/data.
+  cp "$root/tests/gltf/data/skin_two_bone.gltf" "$root/tests/gltf/data/morph_triangle.gltf" "$corpus/"
 fi
 
 cd "$out"

@@ -11,6 +11,7 @@
 // ASan + UBSan by scripts/sanitize.sh. Skipped when ../shared is absent.
 #include <catch2/catch.hpp>
 #include "support/skip.hpp"
+#include "support/gltf_deform.hpp"
 #include "support/gltf_json.hpp"
 #include "support/meshopt_box.hpp"
 #include <atomic>
@@ -609,3 +610,89 @@ TEST_CASE("EXT_meshopt_compression: bad compressed bufferViews are errors naming
 }
 
 }  // namespace meshopt_input_test
+
+// Bad skins and morph targets (io/gltf/deform.hpp): each malformed case of
+// the files tests/support/gltf_deform.hpp writes must be a prism::Error
+// naming the file, the element and what is wrong, under ASan + UBSan too.
+namespace deform_input_test {
+
+using namespace prism;
+using nlohmann::json;
+
+TEST_CASE("bad input: skins and morph targets are errors naming the element", "[gltf][bad_input][skin]") {
+  struct Case {
+    const char* what;
+    json g;
+    const char* expect;
+  };
+  auto strip = [](auto&& edit, float scale = 1) {
+    json g = gltf_deform::two_bone_strip(scale);
+    edit(g);
+    return g;
+  };
+  auto morph = [](auto&& edit, std::vector<float> weights = {0, 0, 1, 0.5f}) {
+    json g = gltf_deform::morph_triangle(true, {0.25, 0}, std::move(weights));
+    edit(g);
+    return g;
+  };
+  auto none = [](json&) {};
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {"a skin index out of range", strip([](json& g) { g["nodes"][0]["skin"] = 3; }),
+       "nodes[0].skin: skin index 3 out of range"},
+      {"a joint node out of range", strip([](json& g) { g["skins"][0]["joints"] = {1, 40}; }),
+       "skins[0].joints[1]: node index 40 out of range"},
+      {"a skin without joints", strip([](json& g) { g["skins"][0]["joints"] = json::array(); }),
+       "skins[0].joints: is empty"},
+      {"JOINTS_0 past the skin's joints", strip([](json& g) { g["skins"][0]["joints"] = {1}; }),
+       "attributes.JOINTS_0: element 0 names joint 1, the skin has 1 joints"},
+      {"weights that sum to 0.9", strip(none, 0.9f), "attributes.WEIGHTS_0: element 0: the weights sum to 0.9"},
+      {"weights that sum to 0", strip(none, 0.0f), "the weights sum to 0"},
+      {"a negative weight", strip(none, -1.0f), "attributes.WEIGHTS_0: element 0 has a negative or non-finite weight"},
+      {"a NaN weight", strip(none, nan), "attributes.WEIGHTS_0: element 0 has a negative or non-finite weight"},
+      {"a skinned primitive without JOINTS_0",
+       strip([](json& g) { g["meshes"][0]["primitives"][0]["attributes"].erase("JOINTS_0"); }),
+       "attributes: has WEIGHTS_0 without JOINTS_0"},
+      {"a skinned primitive without joints or weights", strip([](json& g) {
+         g["meshes"][0]["primitives"][0]["attributes"].erase("JOINTS_0");
+         g["meshes"][0]["primitives"][0]["attributes"].erase("WEIGHTS_0");
+       }),
+       "has no JOINTS_0 and WEIGHTS_0, but its node has a skin"},
+      {"fewer inverse bind matrices than joints",
+       strip([](json& g) { g["accessors"][g["skins"][0]["inverseBindMatrices"].get<int>()]["count"] = 1; }),
+       "skins[0].inverseBindMatrices: has 1 matrices for 2 joints"},
+      {"WEIGHTS_0 of the wrong type", strip([](json& g) {
+         g["meshes"][0]["primitives"][0]["attributes"]["WEIGHTS_0"] = g["meshes"][0]["primitives"][0]["attributes"]["POSITION"];
+       }),
+       "attributes.WEIGHTS_0 (accessors[0]): has 3 components per element, expected 4"},
+      {"NaN animated morph weights", morph(none, {0, 0, nan, 0.5f}), "nodes[0].weights (animated): is not finite"},
+      {"node weights of the wrong count", morph([](json& g) { g["nodes"][0]["weights"] = {1.0, 0.0, 0.0}; }),
+       "nodes[0].weights: has 3 weights, the mesh's morph targets are 2"},
+      {"mesh weights of the wrong count", morph([](json& g) { g["meshes"][0]["weights"] = {1.0}; }),
+       "meshes[0].weights: has 1 weights, the mesh's morph targets are 2"},
+      {"a target of the wrong length", morph([](json& g) { g["accessors"][2]["count"] = 2; }),
+       "meshes[0].primitives[0].targets[0].POSITION: has 2 elements, POSITION has 3"},
+      {"a target accessor out of range",
+       morph([](json& g) { g["meshes"][0]["primitives"][0]["targets"][0]["POSITION"] = 50; }),
+       "targets[0].POSITION: accessor index 50 out of range"},
+      {"a weights channel whose output is too short", morph([](json& g) { g["accessors"][6]["count"] = 3; }),
+       "animations[0].samplers[0]: input and output counts do not match"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.what);
+    std::string path = gltf_json::write_temp_gltf("gltf_deform_input", "bad.gltf", c.g);
+    std::string e = "(no error)";
+    try {
+      GltfOptions opt;
+      opt.time = 0.5;
+      load_gltf<RGB>(path, opt);
+    } catch (const Error& err) {
+      e = err.what();
+    }
+    INFO(e);
+    CHECK(e.find(path + ": ") == 0);
+    CHECK(e.find(c.expect) != std::string::npos);
+  }
+}
+
+}  // namespace deform_input_test

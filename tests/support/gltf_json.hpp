@@ -6,6 +6,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <stdexcept>
 #include <string>
 #include <vector>
 #include <nlohmann/json.hpp>
@@ -99,6 +101,36 @@ inline json box_gltf(float d, const json& material, const std::vector<std::strin
                                 {{"bufferView", 1}, {"componentType", 5126}, {"count", n}, {"type", "VEC3"}},
                                 {{"bufferView", 2}, {"componentType", 5123}, {"count", idx.size()}, {"type", "SCALAR"}}});
   return g;
+}
+
+// A copy of the GLB file `in` at `out` with its JSON chunk edited by `edit`
+// (the binary chunk kept; the JSON padded with spaces to 4 bytes, as the
+// GLB layout asks). Throws std::runtime_error on a file that is not GLB.
+template <class Edit>
+void edit_glb(const std::string& in, const std::string& out, Edit&& edit) {
+  std::ifstream f(in, std::ios::binary);
+  std::string bytes{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    if (at + 4 > bytes.size()) throw std::runtime_error(in + ": truncated GLB");
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  if (bytes.size() < 20 || u32(0) != 0x46546C67u || u32(16) != 0x4E4F534Au) throw std::runtime_error(in + ": not GLB");
+  size_t json_len = u32(12);
+  json g = json::parse(bytes.substr(20, json_len));
+  edit(g);
+  std::string text = g.dump();
+  while (text.size() % 4) text += ' ';
+  std::string rest = bytes.substr(20 + json_len);
+  std::string head(20, '\0');
+  auto put = [&](size_t at, uint32_t v) { std::memcpy(head.data() + at, &v, 4); };
+  put(0, 0x46546C67u);
+  put(4, 2);
+  put(8, uint32_t(20 + text.size() + rest.size()));
+  put(12, uint32_t(text.size()));
+  put(16, 0x4E4F534Au);
+  std::ofstream(out, std::ios::binary) << head << text << rest;
 }
 
 // Writes g as PRISM_TEST_TMP_DIR/<dir>/<name> and returns the path.

@@ -1,7 +1,8 @@
 // prism/io/gltf/animation.hpp — glTF animations: the channels that move
 // nodes (translation, rotation, scale), their samplers evaluated at a time
 // (STEP, LINEAR with slerp for rotations, CUBICSPLINE), and a node's local
-// transform at a time, composed in double (math/transform.hpp's Matrix4d).
+// transform at a time, composed in double (math/transform.hpp's Matrix4d);
+// and the channels that set a node's morph weights.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -33,11 +34,25 @@ class Animation {
         m_doc.check_index(ch.sampler, an.samplers.size(), where + ".sampler", "sampler");
         if (ch.target_path == "translation" || ch.target_path == "rotation" || ch.target_path == "scale")
           m_channels[ch.target_node].push_back({ch.sampler, &an, ch.target_path, int(a)});
+        else if (ch.target_path == "weights")
+          m_weights[ch.target_node] = {ch.sampler, &an, ch.target_path, int(a)};
       }
     }
   }
-  // True if no channel moves a node.
-  bool empty() const { return m_channels.empty(); }
+  // True if no channel moves a node or sets morph weights.
+  bool empty() const { return m_channels.empty() && m_weights.empty(); }
+  // True if a channel sets node n's morph weights.
+  bool animates_weights(int n) const { return m_weights.count(n) > 0; }
+
+  // Node n's morph weights at `time`: `defaults` (default_morph_weights),
+  // replaced by the animated ones where a channel sets them.
+  std::vector<double> morph_weights(int n, double time, std::vector<double> defaults) const {
+    auto it = m_weights.find(n);
+    if (it == m_weights.end() || defaults.empty()) return defaults;
+    auto w = sample_channel(it->second, int(defaults.size()), time);
+    for (double v : w) m_doc.check_finite_number(v, idx("nodes", n) + ".weights (animated)");
+    return w;
+  }
 
   // A node's transform relative to its parent at `time`: its matrix, or its
   // translation, rotation and scale with the animated ones sampled.
@@ -87,7 +102,8 @@ class Animation {
     const auto& s = ch.anim->samplers[size_t(ch.sampler)];
     std::string where = idx("animations", ch.anim_index) + ".samplers[" + std::to_string(ch.sampler) + "]";
     auto times = read_accessor(m_doc, s.input, where + ".input", 1);
-    auto values = read_accessor(m_doc, s.output, where + ".output", comps);
+    // Morph weights are scalars, one per target and key.
+    auto values = read_accessor(m_doc, s.output, where + ".output", ch.path == "weights" ? 1 : comps);
     bool cubic = s.interpolation == "CUBICSPLINE";
     size_t per_key = cubic ? 3 : 1;
     if (times.empty() || values.size() != times.size() * per_key * size_t(comps))
@@ -136,6 +152,7 @@ class Animation {
 
   const Document& m_doc;
   std::map<int, std::vector<Channel>> m_channels;
+  std::map<int, Channel> m_weights;  // morph-weight channels, by node
 };
 
 }  // namespace prism::gltf_detail

@@ -21,6 +21,7 @@
 #include "prism/geometry/triangle.hpp"
 #include "prism/io/gltf/accessors.hpp"
 #include "prism/io/gltf/container.hpp"
+#include "prism/io/gltf/deform.hpp"
 
 namespace prism::gltf_detail {
 
@@ -118,8 +119,10 @@ inline std::optional<DecodedPrimitive> decode_draco(const Document& doc, const t
 #endif
 
 // The prism mesh of a triangle primitive (TRIANGLES, TRIANGLE_STRIP or
-// TRIANGLE_FAN; strips and fans become triangles), its attributes checked.
-inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primitive& prim, const std::string& where) {
+// TRIANGLE_FAN; strips and fans become triangles), its attributes checked;
+// morphed and skinned by `deform` when given (deform.hpp).
+inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primitive& prim, const std::string& where,
+                                    const Deformation* deform = nullptr) {
   TriangleMesh tm;
   std::optional<DecodedPrimitive> draco;
 #if defined(PRISM_HAS_DRACO)
@@ -144,6 +147,11 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
   std::string pw = where + ".attributes.POSITION";
   auto pos = read("POSITION", it->second, pw, 3);
   size_t nv = pos.size() / 3;
+  std::optional<PrimitiveDeformer> deformer;
+  if (deform && deform->any()) {
+    deformer.emplace(doc, prim, where, *deform, nv, read);
+    deformer->positions(pos);
+  }
   tm.positions.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
     double x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
@@ -195,6 +203,8 @@ inline TriangleMesh build_primitive(const Document& doc, const tinygltf::Primiti
       doc.fail(aw, "has " + std::to_string(v.size() / size_t(comps)) + " elements, POSITION has " + std::to_string(nv));
     for (double d : v)
       if (!std::isfinite(d)) doc.fail(aw, "holds a non-finite value");
+    if (deformer && std::string(name) == "NORMAL") deformer->normals(v);
+    if (deformer && std::string(name) == "TANGENT") deformer->tangents(v);
     store(v);
   };
   optional_attr("NORMAL", 3, [&](const std::vector<double>& v) {

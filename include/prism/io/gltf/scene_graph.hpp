@@ -4,7 +4,7 @@
 // tree, composing world transforms in double (with animation.hpp's values
 // at the shutter's open and close), placing mesh instances (a glTF mesh's
 // primitives and materials, built once; EXT_mesh_gpu_instancing; moving
-// instances), cameras and KHR_lights_punctual lights; and the framing camera
+// instances; skinned and morphed meshes built per node, deform.hpp), cameras and KHR_lights_punctual lights; and the framing camera
 // for a scene without one.
 #pragma once
 #include <algorithm>
@@ -25,6 +25,7 @@
 #include "prism/io/gltf/accessors.hpp"
 #include "prism/io/gltf/animation.hpp"
 #include "prism/io/gltf/container.hpp"
+#include "prism/io/gltf/deform.hpp"
 #include "prism/io/gltf/images.hpp"
 #include "prism/io/gltf/materials.hpp"
 #include "prism/io/gltf/meshes.hpp"
@@ -41,12 +42,15 @@ namespace prism {
 
 struct GltfOptions {
   int scene = -1;   // the glTF scene to load; -1: the file's default (else scene 0)
-  double time = 0;  // animations are sampled at this time (seconds)
+  // Animations are sampled at this time (seconds): node transforms, skins
+  // (linear blend skinning) and morph weights.
+  double time = 0;
   // Motion blur: a shutter open from `time` to `time + shutter` seconds. A
   // mesh node that the animations move in that interval becomes a moving
   // instance with the node's world transforms at both ends as its keys
   // (AnimatedTransform: linear translation and stretch, slerp rotation).
-  // Cameras and punctual lights stay where they are at `time`.
+  // Cameras and punctual lights stay where they are at `time`; skinned and
+  // morphed meshes are drawn as they are at `time` (no deformation blur).
   double shutter = 0;
   // Kulla-Conty energy compensation on every material's rough lobes
   // (MetalRoughMaterial::multiple_scattering; docs/microfacets.md). Off by default:
@@ -84,6 +88,7 @@ struct GltfScene {
   size_t punctual_lights = 0;    // KHR_lights_punctual lights placed
   size_t emissive_instances = 0;
   size_t moving_instances = 0;   // instances that move during the shutter (GltfOptions::shutter)
+  size_t deformed_instances = 0; // instances of skinned or morphed meshes (at GltfOptions::time)
   size_t images = 0, image_bytes = 0;
   std::vector<std::string> variants;  // KHR_materials_variants: the file's variant names, in order
   std::string variant;               // the variant loaded (GltfOptions::variant); empty: the defaults
@@ -145,9 +150,10 @@ class Loader {
     uint32_t material;
     int gltf_material;
   };
-  const std::vector<Part>& mesh_parts(int m) {
+  // With a deformation, the parts are the node's own: built each time.
+  const std::vector<Part>& mesh_parts(int m, const Deformation* deform = nullptr) {
     auto found = m_mesh_cache.find(m);
-    if (found != m_mesh_cache.end()) return found->second;
+    if (!deform && found != m_mesh_cache.end()) return found->second;
     std::vector<Part> parts;
     const auto& mesh = m_doc.model.meshes[size_t(m)];
     if (mesh.primitives.empty())
@@ -172,20 +178,56 @@ class Loader {
                                  attr("TANGENT"), attr("COLOR_0"), prim.indices, prim.mode);
       uint32_t mesh_id;
       auto shared = m_prim_cache.find(key);
-      if (shared != m_prim_cache.end()) {
+      if (!deform && shared != m_prim_cache.end()) {
         mesh_id = shared->second;
       } else {
-        TriangleMesh tm = build_primitive(m_doc, prim, where);
+        TriangleMesh tm = build_primitive(m_doc, prim, where, deform);
         if (tm.triangle_count() == 0) m_doc.fail(where, "has no triangle (too few vertices or indices)");
         mesh_id = m_out.scene.add_mesh(std::move(tm));
-        m_prim_cache.emplace(key, mesh_id);
+        if (!deform) m_prim_cache.emplace(key, mesh_id);
       }
       if (prim.material != -1)
         m_doc.check_index(prim.material, m_doc.model.materials.size(), where + ".material", "material");
       int mat = variant_material(prim, where);
       parts.push_back({mesh_id, material(mat), mat});
     }
+    if (deform) return m_deformed_parts = std::move(parts);
     return m_mesh_cache.emplace(m, std::move(parts)).first->second;
+  }
+
+  // Node n's world transform at `time`, through its parents (the first node
+  // that lists it as a child), wherever it is in the file: a skin's joints
+  // need not be in the scene being loaded.
+  Matrix4d node_world(int n, double time) {
+    const auto& nodes = m_doc.model.nodes;
+    if (m_parent.empty()) {
+      m_parent.assign(nodes.size(), -1);
+      for (size_t p = 0; p < nodes.size(); ++p)
+        for (size_t c = 0; c < nodes[p].children.size(); ++c) {
+          int child = nodes[p].children[c];
+          m_doc.check_index(child, nodes.size(), idx("nodes", int(p)) + ".children[" + std::to_string(c) + "]", "node");
+          if (m_parent[size_t(child)] == -1) m_parent[size_t(child)] = int(p);
+        }
+    }
+    Matrix4d w = m_animation.local_matrix(n, time);
+    int depth = 0;
+    for (int p = m_parent[size_t(n)]; p != -1; p = m_parent[size_t(p)]) {
+      if (++depth > 4096) m_doc.fail(idx("nodes", n), "its ancestors form a cycle or are deeper than 4096 levels");
+      w = m_animation.local_matrix(p, time) * w;
+    }
+    return w;
+  }
+
+  // What deforms node n's mesh at `time`: its morph weights and its skin's
+  // joint matrices (deform.hpp).
+  Deformation deformation(int n, const tinygltf::Node& node, double time) {
+    Deformation d;
+    d.morph_weights = m_animation.morph_weights(n, time, default_morph_weights(m_doc, n));
+    if (node.skin != -1) {
+      m_doc.check_index(node.skin, m_doc.model.skins.size(), idx("nodes", n) + ".skin", "skin");
+      d.joints = joint_matrices(m_doc, node.skin, [&](int j) { return node_world(j, time); });
+    }
+    return d;
   }
 
   // KHR_materials_variants: the file's variant names, and the index of the
@@ -295,7 +337,21 @@ class Loader {
 
   void place_mesh(int n, const tinygltf::Node& node, const Matrix4d& world, const Matrix4d& world_end) {
     std::vector<Matrix4d> transforms, transforms_end;
-    if (const auto* e = ext(node.extensions, "EXT_mesh_gpu_instancing")) {
+    const Deformation deform = deformation(n, node, m_opt.time);
+    if (deform.any() && m_opt.shutter > 0 && (deform.skins() || m_animation.animates_weights(n)) &&
+        !m_warned_deformation_blur) {
+      m_doc.warn(idx("nodes", n) + ": skinned and morphed meshes are drawn as they are when the shutter opens "
+                                   "(deformation blur is not supported)");
+      m_warned_deformation_blur = true;
+    }
+    if (deform.skins()) {
+      // A skinned mesh is placed by its joints alone: the specification
+      // has the node's own transform (and so its instancing) ignored.
+      if (ext(node.extensions, "EXT_mesh_gpu_instancing"))
+        m_doc.warn(idx("nodes", n) + ": EXT_mesh_gpu_instancing on a skinned mesh is ignored");
+      transforms.push_back(Matrix4d{});
+      transforms_end.push_back(Matrix4d{});
+    } else if (const auto* e = ext(node.extensions, "EXT_mesh_gpu_instancing")) {
       std::string ew = idx("nodes", n) + ".extensions.EXT_mesh_gpu_instancing.attributes";
       const tinygltf::Value* attrs = e->Has("attributes") ? &e->Get("attributes") : nullptr;
       std::vector<double> t, r, s;
@@ -329,7 +385,8 @@ class Loader {
       transforms.push_back(world);
       transforms_end.push_back(world_end);
     }
-    const auto& parts = mesh_parts(node.mesh);
+    const auto& parts = mesh_parts(node.mesh, deform.any() ? &deform : nullptr);
+    if (deform.any()) m_out.deformed_instances += transforms.size();
     for (size_t i = 0; i < transforms.size(); ++i) {
       const Matrix4d& m = transforms[i];
       for (double v : m.m)
@@ -456,6 +513,9 @@ class Loader {
   Document m_doc;
   GltfOptions m_opt;
   bool m_warned_moving_emitter = false;
+  bool m_warned_deformation_blur = false;
+  std::vector<int> m_parent;            // node_world: each node's parent, -1 for roots
+  std::vector<Part> m_deformed_parts;   // mesh_parts with a deformation: the last node's
   PendingImages m_pending;
   Images m_images;
   Materials m_materials{m_doc, m_images, m_opt.multiple_scattering};
