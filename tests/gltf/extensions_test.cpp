@@ -322,6 +322,46 @@ json basisu_box(bool fallback, bool required) {
 
 }  // namespace
 
+// KHR_materials_anisotropy: the factors reach MetalRoughMaterial, the
+// texture is linear, bad factors are errors, the shared test models load
+// without a warning about the extension.
+TEST_CASE("KHR_materials_anisotropy: strength, rotation and texture load, bad values are errors", "[gltf][anisotropy]") {
+  json m = unlit_material({0.5, 0.5, 0.5}, false);
+  m["extensions"]["KHR_materials_anisotropy"] = {{"anisotropyStrength", 0.6}, {"anisotropyRotation", 0.5}};
+  json g = box_gltf(1, m, {"KHR_materials_anisotropy"});
+  auto loaded = load_gltf<RGB>(write_temp("anisotropy.gltf", g));
+  CHECK(loaded.warnings.empty());
+  REQUIRE(loaded.scene.materials().size() == 1);
+  const auto& mat = std::get<0>(loaded.scene.materials()[0]);
+  CHECK(mat.anisotropy == Approx(0.6));
+  CHECK(mat.anisotropy_rotation == Approx(0.5));
+  for (double bad : {-0.1, 1.5}) {
+    g["materials"][0]["extensions"]["KHR_materials_anisotropy"]["anisotropyStrength"] = bad;
+    std::string e;
+    try {
+      load_gltf<RGB>(write_temp("anisotropy_bad.gltf", g));
+    } catch (const Error& err) {
+      e = err.what();
+    }
+    CHECK(e.find("materials[0].extensions.KHR_materials_anisotropy.anisotropyStrength: must be in [0, 1]") !=
+          std::string::npos);
+  }
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  for (const char* model : {"AnisotropyStrengthTest", "AnisotropyRotationTest"}) {
+    auto a = load_gltf<RGB>(scenes_dir + model + "/glTF-Binary/" + model + ".glb");
+    for (const auto& w : a.warnings) CHECK(w.find("anisotropy") == std::string::npos);
+    size_t aniso = 0, textured = 0;
+    for (const auto& v : a.scene.materials()) {
+      const auto& mm = std::get<0>(v);
+      aniso += mm.anisotropy > 0;
+      textured += mm.textures && mm.textures->anisotropy;
+    }
+    INFO(model);
+    CHECK(aniso > 0);
+    if (std::string(model) == "AnisotropyRotationTest") CHECK(textured == 2);  // "+ Texture" and "+ Texture + Rotation"
+  }
+}
+
 TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error when required", "[gltf][basisu]") {
   std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
   std::filesystem::create_directories(dir);

@@ -213,32 +213,51 @@ inline double walter_transmission(double ax, double ay, double eta, const Dir& w
 // h) is above the surface iff theta_h < (delta + pi/2) / 2 with tan delta =
 // sin theta_o cos phi / cos theta_o (wi.z = R cos(2 theta_h - delta)), so
 // each phi integrates xi over [0, xi_max(phi)]: the integrand is smooth
-// inside, and phi (even, periodic) goes on [0, pi] by the midpoint rule,
+// inside, and phi (periodic) goes round the circle by the midpoint rule,
 // which converges geometrically for it. xi = xi_max (1 - (1 - t)^2) clusters
 // points towards xi_max, where tan theta_h grows like 1 / sqrt(1 - xi) at
 // grazing incidence. Resolution: n_phi x (panels x 16) points; the default
 // agrees with twice as many to < 1e-7 for theta_o <= 89.9 deg, alpha >= 1e-3
 // (docs/testing.md), and gives 1 - ln 2 at alpha = 1, theta_o = 0 to 1e-12.
+inline double conductor_albedo_aniso(double theta_o, double phi_o, double ax, double ay, int n_u = 256,
+                                     int panels = 8);
 inline double conductor_albedo(double theta_o, double alpha, int n_phi = 64, int panels = 8) {
-  Dir wo{std::sin(theta_o), 0, std::cos(theta_o)};
+  // The isotropic case of conductor_albedo_aniso (below): its midpoints in
+  // u over the whole circle are these n_phi over [0, pi] and their mirror
+  // images, which the even integrand weighs alike.
+  return conductor_albedo_aniso(theta_o, 0, alpha, alpha, 2 * n_phi, panels);
+}
+// The same albedo for an anisotropic lobe (alpha_x along x, alpha_y along
+// y) and wo at azimuth phi_o. The normals' projected-area measure D cos
+// theta_h d h is du d xi for phi(u) = atan2(alpha_y sin 2 pi u, alpha_x cos
+// 2 pi u) and xi = tan^2 / (alpha(phi)^2 + tan^2), alpha(phi)^-2 =
+// cos^2 phi / alpha_x^2 + sin^2 phi / alpha_y^2 (the stretched GGX, Heitz
+// 2014 section 5.4): the isotropic change of variables with u in place of
+// phi / (2 pi). The horizon limit on each phi is conductor_albedo's with
+// phi - phi_o. u on [0, 1) by the midpoint rule (smooth and periodic in u).
+inline double conductor_albedo_aniso(double theta_o, double phi_o, double ax, double ay, int n_u, int panels) {
+  Dir wo{std::sin(theta_o) * std::cos(phi_o), std::sin(theta_o) * std::sin(phi_o), std::cos(theta_o)};
   double sum = 0;
-  for (int j = 0; j < n_phi; ++j) {
-    double phi = pi * (j + 0.5) / n_phi;
-    double delta = std::atan2(std::sin(theta_o) * std::cos(phi), std::cos(theta_o));
+  for (int j = 0; j < n_u; ++j) {
+    double u = (j + 0.5) / n_u;
+    double phi = std::atan2(ay * std::sin(2 * pi * u), ax * std::cos(2 * pi * u));
+    double a = 1 / std::sqrt(std::pow(std::cos(phi) / ax, 2) + std::pow(std::sin(phi) / ay, 2));
+    double delta = std::atan2(std::sin(theta_o) * std::cos(phi - phi_o), std::cos(theta_o));
     double th_max = (delta + pi / 2) / 2;
-    double xi_max = th_max >= pi / 2 ? 1 : std::pow(std::tan(th_max), 2) / (alpha * alpha + std::pow(std::tan(th_max), 2));
+    double xi_max = th_max >= pi / 2 ? 1 : std::pow(std::tan(th_max), 2) / (a * a + std::pow(std::tan(th_max), 2));
     auto g = [&](double t) {
       double xi = xi_max * (1 - (1 - t) * (1 - t)), dxi = xi_max * 2 * (1 - t);
-      double th = std::atan(alpha * std::sqrt(xi / (1 - xi)));
+      double th = std::atan(a * std::sqrt(xi / (1 - xi)));
       Dir h = from_angles(th, phi);
       Dir wi = mirror_about(wo, h);
       if (!(wi.z > 0)) return 0.0;
-      return dxi * smith_G2(alpha, alpha, wo, wi) * dot(wo, h) / (wo.z * h.z);
+      return dxi * smith_G2(ax, ay, wo, wi) * dot(wo, h) / (wo.z * h.z);
     };
     sum += integrate(g, 0, 1, panels);
   }
-  return sum / n_phi;  // (1 / (2 pi)) * 2 * (pi / n_phi) * sum
+  return sum / n_u;
 }
+
 // Kulla & Conty 2017 ("Revisiting physically based shading at Imageworks",
 // SIGGRAPH course), the average albedo E_avg = 2 int_0^1 E(mu) mu dmu, by
 // Gauss-Legendre in mu.

@@ -1,6 +1,9 @@
 // prism/bxdfs/metal_rough.hpp — the glTF 2.0 metallic-roughness material
 // (glTF 2.0 specification, Appendix B) with KHR_materials_ior,
-// KHR_materials_specular, KHR_materials_transmission (thin-walled) and, for
+// KHR_materials_specular, KHR_materials_anisotropy (an anisotropic
+// Trowbridge–Reitz lobe, alpha_t = mix(alpha, 1, strength^2) along the
+// material's direction: MetalRoughMaterial::anisotropy, shading_frame()),
+// KHR_materials_transmission (thin-walled) and, for
 // KHR_materials_volume and _dispersion, a refracting "glass" lobe in place
 // of the thin transmission (make_refractive(); docs/gltf.md, Volumes).
 //
@@ -64,6 +67,7 @@
 // so MIS sees one density.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -524,6 +528,9 @@ struct MetalRoughTextures {
   std::optional<ImageTexture> transmission;        // KHR_materials_transmission: R x transmission
   std::optional<ImageTexture> specular;            // KHR_materials_specular: A x specular
   std::optional<ImageTexture> specular_color;      // KHR_materials_specular: sRGB rgb x specular_color
+  // KHR_materials_anisotropy, linear: RG the direction in [-1, 1] (x 2 - 1)
+  // in the tangent-bitangent plane, B x anisotropy (the strength).
+  std::optional<ImageTexture> anisotropy;
 };
 
 // glTF alphaMode: opaque ignores alpha; mask keeps a surface where alpha >=
@@ -545,6 +552,13 @@ struct MetalRoughMaterial {
   Float thickness = 0;
   VolumeAbsorption attenuation{};  // attenuationColor, attenuationDistance (default: none)
   Float dispersion = 0;            // KHR_materials_dispersion: 20 / V_d (Abbe number), 0 = none
+  // KHR_materials_anisotropy: the strength s in [0, 1] stretches the
+  // Trowbridge–Reitz lobe along a direction of the tangent plane, alpha_t =
+  // alpha + (1 - alpha) s^2 along it and alpha across it; the direction is
+  // the mesh's tangent turned by anisotropy_rotation radians towards the
+  // bitangent (then by the texture's, if any). 0: isotropic, as before.
+  Float anisotropy = 0;
+  Float anisotropy_rotation = 0;
   Float alpha = 1;                // baseColorFactor's alpha
   AlphaMode alpha_mode = AlphaMode::opaque;
   Float alpha_cutoff = 0.5f;
@@ -577,6 +591,7 @@ namespace detail {
 struct MetalRoughParams {
   RGB base{0}, dielectric_f0{0};
   Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
+  Float anisotropy = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
 inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
@@ -586,11 +601,12 @@ struct MetalRoughFactors {
   Float metallic, roughness, ior, specular;
   RGB specular_color;
   Float transmission;
+  Float anisotropy;
 };
 // The material's values at a hit: factors times textures times vertex colour.
 inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
-  MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,   m.ior,
-                      m.specular,              m.specular_color, m.transmission};
+  MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,    m.ior,
+                      m.specular,              m.specular_color, m.transmission, m.anisotropy};
   if (const MetalRoughTextures* t = m.textures.get()) {
     if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
     if (t->metallic_roughness) {
@@ -602,8 +618,22 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
     if (t->specular) v.specular *= t->specular->evaluate(texcoord(*t->specular, si)).a;
     if (t->specular_color)
       v.specular_color = v.specular_color * t->specular_color->evaluate(texcoord(*t->specular_color, si)).rgb;
+    if (t->anisotropy && v.anisotropy != 0) v.anisotropy *= t->anisotropy->evaluate(texcoord(*t->anisotropy, si)).rgb.b;
   }
   return v;
+}
+// KHR_materials_anisotropy's direction at a hit, in the tangent-bitangent
+// plane: (1, 0) or the texture's RG x 2 - 1, turned counter-clockwise by
+// the rotation.
+inline std::array<Float, 2> anisotropy_direction(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+  Float dx = 1, dy = 0;
+  if (m.textures && m.textures->anisotropy) {
+    RGB t = m.textures->anisotropy->evaluate(texcoord(*m.textures->anisotropy, si)).rgb;
+    dx = 2 * t.r - 1;
+    dy = 2 * t.g - 1;
+  }
+  Float c = std::cos(m.anisotropy_rotation), s = std::sin(m.anisotropy_rotation);
+  return {c * dx - s * dy, s * dx + c * dy};
 }
 // Coverage in [0, 1] at a hit (alphaMode): 1 when opaque, 0 or 1 for mask.
 inline Float metal_rough_opacity(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
@@ -637,6 +667,8 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   note("specular", m.specular, p.specular);
   p.transmission = unit_or_zero(m.transmission);
   note("transmission", m.transmission, p.transmission);
+  p.anisotropy = unit_or_zero(m.anisotropy);
+  note("anisotropy", m.anisotropy, p.anisotropy);
   Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
   for (int i = 0; i < 3; ++i) {
     Float sc = m.specular_color[i] > 0 && std::isfinite(m.specular_color[i]) ? m.specular_color[i] : Float(0);
@@ -674,8 +706,12 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     S base = spectrum_traits<S>::albedo(p.base, lambda);
     S f0 = spectrum_traits<S>::albedo(p.dielectric_f0, lambda);
     Float f0_max = std::min(std::max(p.dielectric_f0.max_component(), f0.max_component()), Float(1));
-    MetalRoughBxDF<S> b(TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)), base, f0, f0_max,
-                        p.specular, p.metallic, p.transmission);
+    // KHR_materials_anisotropy: alpha_t = mix(alpha, 1, s^2) along the
+    // shading frame's x (shading_frame() turns it to the direction).
+    const Float alpha = sqr(p.roughness);
+    TrowbridgeReitz distrib = p.anisotropy > 0 ? TrowbridgeReitz(alpha + (1 - alpha) * sqr(p.anisotropy), alpha)
+                                               : TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness));
+    MetalRoughBxDF<S> b(distrib, base, f0, f0_max, p.specular, p.metallic, p.transmission);
     if (m.is_volume() && p.transmission > 0 && p.metallic < 1) b.make_refractive(path_eta(m.volume_ior(), lambda));
     if (m.multiple_scattering) b.enable_multiple_scattering();
     return b;
@@ -704,6 +740,8 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     check_finite("specular", m.specular);
     for (int i = 0; i < 3; ++i) check_finite("specular_color", m.specular_color[i]);
     check_finite("transmission", m.transmission);
+    check_finite("anisotropy", m.anisotropy);
+    check_finite("anisotropy_rotation", m.anisotropy_rotation);
     if (m.ior != 0 && !(m.ior >= 1)) {
       std::ostringstream s;
       s << "ior = " << m.ior << " must be >= 1 (or exactly 0 for F0 = 1, as in KHR_materials_ior)";
@@ -746,17 +784,28 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
   // Normal mapping: the shading normal from normalTexture, in the tangent
   // frame of the mesh's TANGENT (with its handedness) or, without one, of the
   // uv derivatives (bitangent towards decreasing v: glTF's +Y is up in the
-  // image, and v runs down).
+  // image, and v runs down). An anisotropic material (anisotropy > 0) gets
+  // the frame's x along its direction in that same tangent frame.
   static Frame shading_frame(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
-    if (!m.textures || !m.textures->normal) return si.shading_frame();
-    const ImageTexture& nt = *m.textures->normal;
-    RGB texel = nt.evaluate(detail::texcoord(nt, si)).rgb;
+    const bool mapped_normal = m.textures && m.textures->normal;
+    if (!mapped_normal && !(m.anisotropy > 0)) return si.shading_frame();
     bool has_tangent = length_squared(si.tangent) > 0;
     Vector3f t = has_tangent ? si.tangent : si.dpdu;
     Vector3f b = has_tangent ? cross(Vector3f(si.ns), si.tangent) * si.tangent_w : -si.dpdv;
     SurfaceInteraction mapped = si;
-    mapped.ns = apply_normal_map(texel, m.textures->normal_scale, t, b, si.ns);
+    if (mapped_normal) {
+      const ImageTexture& nt = *m.textures->normal;
+      RGB texel = nt.evaluate(detail::texcoord(nt, si)).rgb;
+      mapped.ns = apply_normal_map(texel, m.textures->normal_scale, t, b, si.ns);
+    }
     mapped.dpdu = t;
+    if (m.anisotropy > 0) {
+      // dpdu is only a direction for shading_frame(), which projects it
+      // onto the tangent plane of ns and falls back if it degenerates.
+      auto d = detail::anisotropy_direction(m, si);
+      Float lt = length(t), lb = length(b);
+      if (lt > 0 && lb > 0 && std::isfinite(lt) && std::isfinite(lb)) mapped.dpdu = t * (d[0] / lt) + b * (d[1] / lb);
+    }
     return mapped.shading_frame();
   }
   // alphaMode coverage at a hit; Scene::intersect passes through surfaces

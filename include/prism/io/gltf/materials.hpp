@@ -1,6 +1,6 @@
 // prism/io/gltf/materials.hpp — glTF materials as prism's
 // MetalRoughMaterial: the metallic-roughness factors and textures, alpha
-// modes, normal maps, KHR_materials_ior, _specular, _transmission, _volume
+// modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _transmission, _volume
 // and _dispersion; emission (KHR_materials_emissive_strength,
 // emissiveTexture) as AreaEmission; KHR_materials_unlit as a black surface
 // that emits its base colour; textures with their samplers (wrap and filter
@@ -112,6 +112,16 @@ class Materials {
         mat.specular_color = RGB(Float(c[0]), Float(c[1]), Float(c[2]));
         set(textures->specular, texture(ref(e, "specularTexture"), false, ew + ".specularTexture"));
         set(textures->specular_color, texture(ref(e, "specularColorTexture"), true, ew + ".specularColorTexture"));
+      }
+      if (const auto* e = ext(g.extensions, "KHR_materials_anisotropy")) {
+        std::string ew = where + ".extensions.KHR_materials_anisotropy";
+        double strength = number(e, "anisotropyStrength", 0), rotation = number(e, "anisotropyRotation", 0);
+        m_doc.check_finite_number(strength, ew + ".anisotropyStrength");
+        m_doc.check_finite_number(rotation, ew + ".anisotropyRotation");
+        if (strength < 0 || strength > 1) m_doc.fail(ew + ".anisotropyStrength", "must be in [0, 1]");
+        mat.anisotropy = Float(strength);
+        mat.anisotropy_rotation = Float(rotation);
+        set(textures->anisotropy, texture(ref(e, "anisotropyTexture"), false, ew + ".anisotropyTexture"));
       }
       if (const auto* e = ext(g.extensions, "KHR_materials_transmission")) {
         mat.transmission = Float(number(e, "transmissionFactor", 0));
