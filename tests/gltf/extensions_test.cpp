@@ -362,6 +362,48 @@ TEST_CASE("KHR_materials_anisotropy: strength, rotation and texture load, bad va
   }
 }
 
+// KHR_materials_clearcoat: factors, textures and the coat's normal map
+// reach MetalRoughMaterial; bad factors are errors; ClearCoatTest loads
+// without a warning about the extension, its six coated materials coated.
+TEST_CASE("KHR_materials_clearcoat: factors and textures load, bad values are errors", "[gltf][clearcoat]") {
+  json m = unlit_material({0.5, 0.5, 0.5}, false);
+  m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 0.7}, {"clearcoatRoughnessFactor", 0.2}};
+  json g = box_gltf(1, m, {"KHR_materials_clearcoat"});
+  auto loaded = load_gltf<RGB>(write_temp("clearcoat.gltf", g));
+  CHECK(loaded.warnings.empty());
+  const auto& mat = std::get<0>(loaded.scene.materials()[0]);
+  CHECK(mat.clearcoat == Approx(0.7));
+  CHECK(mat.clearcoat_roughness == Approx(0.2));
+  for (const char* key : {"clearcoatFactor", "clearcoatRoughnessFactor"})
+    for (double bad : {-0.5, 2.0}) {
+      json b = g;
+      b["materials"][0]["extensions"]["KHR_materials_clearcoat"][key] = bad;
+      std::string e;
+      try {
+        load_gltf<RGB>(write_temp("clearcoat_bad.gltf", b));
+      } catch (const Error& err) {
+        e = err.what();
+      }
+      CHECK(e.find(std::string("materials[0].extensions.KHR_materials_clearcoat.") + key + ": must be in [0, 1]") !=
+            std::string::npos);
+    }
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto a = load_gltf<RGB>(scenes_dir + "ClearCoatTest/glTF-Binary/ClearCoatTest.glb");
+  for (const auto& w : a.warnings) CHECK(w.find("clearcoat") == std::string::npos);
+  size_t coated = 0, coat_normals = 0, coat_textures = 0;
+  for (const auto& v : a.scene.materials()) {
+    const auto& mm = std::get<0>(v);
+    coated += mm.clearcoat > 0;
+    if (mm.textures) {
+      coat_normals += bool(mm.textures->clearcoat_normal);
+      coat_textures += mm.textures->clearcoat || mm.textures->clearcoat_roughness;
+    }
+  }
+  CHECK(coated == 6);
+  CHECK(coat_normals == 2);
+  CHECK(coat_textures == 2);
+}
+
 TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error when required", "[gltf][basisu]") {
   std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
   std::filesystem::create_directories(dir);

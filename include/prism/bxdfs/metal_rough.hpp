@@ -209,7 +209,119 @@ class MetalRoughBxDF {
 
   bool is_smooth() const { return m_distrib.effectively_smooth(); }
 
+  // KHR_materials_clearcoat: a dielectric coat (ior 1.5: Schlick's F with
+  // F0 = 0.04) of weight c in [0, 1] over the whole material, with its own
+  // Trowbridge–Reitz lobe and normal (unit, in this BxDF's local frame):
+  //   coated(wo, wi) = c F(wo.wm) D G / (4 |cos_o cos_i|)             (coat, reflection only)
+  //                  + T(mu_o) T(mu_i) material(wo, wi),   T(mu) = 1 - c F(mu)
+  // with mu the cosines to the coat's normal. The base is weighted by what
+  // the coat lets through on the way in and on the way out (reciprocal;
+  // the extension's sample code weighs it once, by the view direction's
+  // 1 - c F). The coat reflects at most c F(mu_o) (its microfacets' Fresnel
+  // spread is outweighed by masking), so the albedo stays <= 1 when the
+  // base's does. Roughness below TrowbridgeReitz::smooth_alpha is a delta
+  // reflection about the coat's normal. c = 0 leaves the material as it was.
+  void set_clearcoat(Float weight, const TrowbridgeReitz& distrib, const Vector3f& normal = Vector3f(0, 0, 1)) {
+    m_coat = std::clamp(weight, Float(0), Float(1));
+    m_coat_distrib = distrib;
+    m_coat_tilted = !(normal.x == 0 && normal.y == 0 && normal.z == 1);
+    m_coat_frame = m_coat_tilted ? Frame::from_z(normal) : Frame{};
+  }
+  Float clearcoat() const { return m_coat; }
+  const TrowbridgeReitz& clearcoat_distribution() const { return m_coat_distrib; }
+
   S eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
+    if (!(m_coat > 0)) return base_eval(wo, wi, mode);
+    if (wo.z == 0 || wi.z == 0) return S{};
+    const Coat c = coat(wo, wi);
+    return base_eval(wo, wi, mode) * (c.t_o * c.t_i) + S(c.f);
+  }
+  Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
+    if (!(m_coat > 0)) return base_pdf(wo, wi, mode);
+    if (wo.z == 0 || wi.z == 0) return 0;
+    const Coat c = coat(wo, wi);
+    return c.p * c.pdf + (1 - c.p) * base_pdf(wo, wi, mode);
+  }
+  // With a coat, uc first picks the coat with probability c F(mu_o), then
+  // (rescaled) the material's lobe.
+  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
+    if (!(m_coat > 0)) return base_sample(wo, uc, u, mode);
+    if (wo.z == 0) return std::nullopt;
+    Vector3f lo = coat_local(wo);
+    const bool flip = lo.z < 0;
+    if (flip) lo.z = -lo.z;
+    const Float p = m_coat * coat_fresnel(lo.z);
+    if (uc < p) {
+      Vector3f li;
+      if (m_coat_distrib.effectively_smooth()) {
+        li = Vector3f(-lo.x, -lo.y, lo.z);
+      } else {
+        li = reflect(lo, m_coat_distrib.sample_wm(lo, u));
+        if (!(li.z > 0)) return std::nullopt;
+      }
+      if (flip) li.z = -li.z;
+      const Vector3f wi = coat_world(li);
+      if (wi.z == 0) return std::nullopt;
+      if (m_coat_distrib.effectively_smooth())
+        return BSDFSample<S>{S(m_coat * coat_fresnel(lo.z) / std::abs(wi.z)), wi, p, BxDFFlags::specular_reflection};
+      const Float pdf_wi = pdf(wo, wi, mode);
+      if (!(pdf_wi > 0)) return std::nullopt;
+      return BSDFSample<S>{eval(wo, wi, mode), wi, pdf_wi, BxDFFlags::glossy_reflection};
+    }
+    auto bs = base_sample(wo, std::min((uc - p) / (1 - p), one_minus_epsilon), u, mode);
+    if (!bs) return std::nullopt;
+    if (bs->is_specular()) {
+      Vector3f li = coat_local(bs->wi);
+      bs->f = bs->f * ((1 - m_coat * coat_fresnel(lo.z)) * (1 - m_coat * coat_fresnel(std::abs(li.z))));
+      bs->pdf *= 1 - p;
+      return bs;
+    }
+    bs->f = eval(wo, bs->wi, mode);
+    bs->pdf = pdf(wo, bs->wi, mode);
+    if (!(bs->pdf > 0)) return std::nullopt;
+    return bs;
+  }
+
+  BxDFFlags flags() const {
+    BxDFFlags f = base_flags();
+    if (m_coat > 0)
+      f = f | (m_coat_distrib.effectively_smooth() ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
+    return f;
+  }
+
+ private:
+  // The coat at (wo, wi): its f, its sampling density, the probability of
+  // sampling it at wo, and what it lets through at wo and wi.
+  struct Coat {
+    Float f = 0, pdf = 0, p = 0, t_o = 1, t_i = 1;
+  };
+  static Float coat_fresnel(Float mu) { return Float(0.04) + Float(0.96) * detail::schlick_weight(mu); }
+  Vector3f coat_local(const Vector3f& w) const { return m_coat_tilted ? m_coat_frame.to_local(w) : w; }
+  Vector3f coat_world(const Vector3f& w) const { return m_coat_tilted ? m_coat_frame.from_local(w) : w; }
+  Coat coat(const Vector3f& wo, const Vector3f& wi) const {
+    Vector3f lo = coat_local(wo), li = coat_local(wi);
+    if (lo.z < 0) {
+      lo.z = -lo.z;
+      li.z = -li.z;
+    }
+    Coat c;
+    c.p = m_coat * coat_fresnel(lo.z);
+    c.t_o = 1 - c.p;
+    c.t_i = 1 - m_coat * coat_fresnel(std::abs(li.z));
+    if (!(li.z > 0) || !(lo.z > 0) || m_coat_distrib.effectively_smooth()) return c;
+    Vector3f wm = lo + li;
+    Float l2 = length_squared(wm);
+    if (!(l2 > 0)) return c;
+    wm = wm / std::sqrt(l2);
+    Float d = m_coat_distrib.D(wm);
+    if (!(d > 0)) return c;
+    c.f = m_coat * coat_fresnel(dot(lo, wm)) * d * m_coat_distrib.G(lo, li) / (4 * lo.z * li.z);
+    c.pdf = m_coat_distrib.G1(lo) * d / (4 * lo.z);
+    return c;
+  }
+
+ public:
+  S base_eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (wo.z == 0 || wi.z == 0) return S{};
     S g = glass_eval(wo, wi, mode);
     if (wo.z < 0) {
@@ -218,7 +330,7 @@ class MetalRoughBxDF {
     }
     return eval_up(wo, wi) + g;
   }
-  Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
+  Float base_pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (wo.z == 0 || wi.z == 0) return 0;
     const Lobes p = lobe_probabilities(wo.z);
     Float g = m_glass_k > 0 && p.glass > 0 ? p.glass * m_glass.pdf(wo, wi, mode) : 0;
@@ -232,7 +344,7 @@ class MetalRoughBxDF {
   // uc chooses the lobe (lobe_weights); u samples within it: a visible
   // normal for the reflection and the transmission, the cosine-weighted
   // hemisphere for the diffuse lobe (smooth lobes ignore u).
-  std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
+  std::optional<BSDFSample<S>> base_sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
     if (wo.z == 0) return std::nullopt;
     const Lobes p = lobe_probabilities(wo.z);
     int lobe = choose_lobe(p, uc);
@@ -280,7 +392,7 @@ class MetalRoughBxDF {
     return out({f, wi, pdf, flags, 1});
   }
 
-  BxDFFlags flags() const {
+  BxDFFlags base_flags() const {
     BxDFFlags f = BxDFFlags::none;
     const bool smooth = is_smooth();
     if (m_metallic > 0 || (m_w > 0 && m_layer_k > 0))
@@ -492,8 +604,8 @@ class MetalRoughBxDF {
       if (bs->f.is_black()) return std::nullopt;
       return bs;
     }
-    bs->f = eval(wo, bs->wi, mode);
-    bs->pdf = pdf(wo, bs->wi, mode);
+    bs->f = base_eval(wo, bs->wi, mode);
+    bs->pdf = base_pdf(wo, bs->wi, mode);
     if (!(bs->pdf > 0)) return std::nullopt;
     return bs;
   }
@@ -504,6 +616,10 @@ class MetalRoughBxDF {
   DielectricBxDF<S> m_glass;
   Float m_glass_k = 0;  // (1 - metallic) T for a refractive volume, else 0
   bool m_ms = false;  // enable_multiple_scattering()
+  Float m_coat = 0;   // set_clearcoat()
+  TrowbridgeReitz m_coat_distrib;
+  Frame m_coat_frame;
+  bool m_coat_tilted = false;
 };
 
 // The glTF metallic-roughness material with KHR_materials_ior,
@@ -531,6 +647,12 @@ struct MetalRoughTextures {
   // KHR_materials_anisotropy, linear: RG the direction in [-1, 1] (x 2 - 1)
   // in the tangent-bitangent plane, B x anisotropy (the strength).
   std::optional<ImageTexture> anisotropy;
+  // KHR_materials_clearcoat, linear: R x clearcoat, G x clearcoat_roughness,
+  // and the coat's own tangent-space normal map (none: the mesh's normal).
+  std::optional<ImageTexture> clearcoat;
+  std::optional<ImageTexture> clearcoat_roughness;
+  std::optional<ImageTexture> clearcoat_normal;
+  Float clearcoat_normal_scale = 1;
 };
 
 // glTF alphaMode: opaque ignores alpha; mask keeps a surface where alpha >=
@@ -559,6 +681,11 @@ struct MetalRoughMaterial {
   // bitangent (then by the texture's, if any). 0: isotropic, as before.
   Float anisotropy = 0;
   Float anisotropy_rotation = 0;
+  // KHR_materials_clearcoat: a dielectric coat (ior 1.5) of this weight in
+  // [0, 1] over the material, with its own roughness (alpha = roughness^2)
+  // and normal (MetalRoughBxDF::set_clearcoat). 0: no coat, as before.
+  Float clearcoat = 0;
+  Float clearcoat_roughness = 0;
   Float alpha = 1;                // baseColorFactor's alpha
   AlphaMode alpha_mode = AlphaMode::opaque;
   Float alpha_cutoff = 0.5f;
@@ -591,7 +718,7 @@ namespace detail {
 struct MetalRoughParams {
   RGB base{0}, dielectric_f0{0};
   Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
-  Float anisotropy = 0;
+  Float anisotropy = 0, clearcoat = 0, clearcoat_roughness = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
 inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
@@ -602,11 +729,13 @@ struct MetalRoughFactors {
   RGB specular_color;
   Float transmission;
   Float anisotropy;
+  Float clearcoat, clearcoat_roughness;
 };
 // The material's values at a hit: factors times textures times vertex colour.
 inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
   MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,    m.ior,
-                      m.specular,              m.specular_color, m.transmission, m.anisotropy};
+                      m.specular,              m.specular_color, m.transmission, m.anisotropy,
+                      m.clearcoat,             m.clearcoat_roughness};
   if (const MetalRoughTextures* t = m.textures.get()) {
     if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
     if (t->metallic_roughness) {
@@ -619,6 +748,9 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
     if (t->specular_color)
       v.specular_color = v.specular_color * t->specular_color->evaluate(texcoord(*t->specular_color, si)).rgb;
     if (t->anisotropy && v.anisotropy != 0) v.anisotropy *= t->anisotropy->evaluate(texcoord(*t->anisotropy, si)).rgb.b;
+    if (t->clearcoat && v.clearcoat != 0) v.clearcoat *= t->clearcoat->evaluate(texcoord(*t->clearcoat, si)).rgb.r;
+    if (t->clearcoat_roughness && v.clearcoat != 0)
+      v.clearcoat_roughness *= t->clearcoat_roughness->evaluate(texcoord(*t->clearcoat_roughness, si)).rgb.g;
   }
   return v;
 }
@@ -669,6 +801,10 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   note("transmission", m.transmission, p.transmission);
   p.anisotropy = unit_or_zero(m.anisotropy);
   note("anisotropy", m.anisotropy, p.anisotropy);
+  p.clearcoat = unit_or_zero(m.clearcoat);
+  note("clearcoat", m.clearcoat, p.clearcoat);
+  p.clearcoat_roughness = unit_or_zero(m.clearcoat_roughness);
+  note("clearcoat_roughness", m.clearcoat_roughness, p.clearcoat_roughness);
   Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
   for (int i = 0; i < 3; ++i) {
     Float sc = m.specular_color[i] > 0 && std::isfinite(m.specular_color[i]) ? m.specular_color[i] : Float(0);
@@ -714,7 +850,29 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     MetalRoughBxDF<S> b(distrib, base, f0, f0_max, p.specular, p.metallic, p.transmission);
     if (m.is_volume() && p.transmission > 0 && p.metallic < 1) b.make_refractive(path_eta(m.volume_ior(), lambda));
     if (m.multiple_scattering) b.enable_multiple_scattering();
+    if (p.clearcoat > 0) b.set_clearcoat(p.clearcoat, TrowbridgeReitz(sqr(p.clearcoat_roughness), sqr(p.clearcoat_roughness)),
+                                         clearcoat_normal(m, si));
     return b;
+  }
+  // The coat's normal in the local frame shading_frame() gives the BxDF:
+  // (0, 0, 1) unless a normal map (the material's or the coat's) tells them
+  // apart; the coat's own map, else the mesh's interpolated normal.
+  static Vector3f clearcoat_normal(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
+    const bool base_mapped = m.textures && m.textures->normal;
+    const bool coat_mapped = m.textures && m.textures->clearcoat_normal;
+    if (!base_mapped && !coat_mapped) return Vector3f(0, 0, 1);
+    Vector3f n(si.ns);
+    if (coat_mapped) {
+      const ImageTexture& nt = *m.textures->clearcoat_normal;
+      bool has_tangent = length_squared(si.tangent) > 0;
+      Vector3f t = has_tangent ? si.tangent : si.dpdu;
+      Vector3f b = has_tangent ? cross(Vector3f(si.ns), si.tangent) * si.tangent_w : -si.dpdv;
+      n = Vector3f(apply_normal_map(nt.evaluate(detail::texcoord(nt, si)).rgb, m.textures->clearcoat_normal_scale, t,
+                                    b, si.ns));
+    }
+    Vector3f local = shading_frame(m, si).to_local(n);
+    Float l = length(local);
+    return l > 0 && std::isfinite(l) ? local / l : Vector3f(0, 0, 1);
   }
 
   // Throws prism::Error, prefixed by `where` and naming the material, on a
@@ -742,6 +900,8 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     check_finite("transmission", m.transmission);
     check_finite("anisotropy", m.anisotropy);
     check_finite("anisotropy_rotation", m.anisotropy_rotation);
+    check_finite("clearcoat", m.clearcoat);
+    check_finite("clearcoat_roughness", m.clearcoat_roughness);
     if (m.ior != 0 && !(m.ior >= 1)) {
       std::ostringstream s;
       s << "ior = " << m.ior << " must be >= 1 (or exactly 0 for F0 = 1, as in KHR_materials_ior)";
@@ -820,6 +980,10 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     // A roughness texture may make texels smooth: conservatively yes.
     if (m.textures && m.textures->metallic_roughness && m.roughness > 0) return true;
     detail::MetalRoughParams p = detail::clamp_metal_rough(m);
+    // A smooth clear coat (KHR_materials_clearcoat's default roughness 0).
+    if (p.clearcoat > 0 && ((m.textures && m.textures->clearcoat_roughness) ||
+                            TrowbridgeReitz(sqr(p.clearcoat_roughness), sqr(p.clearcoat_roughness)).effectively_smooth()))
+      return true;
     // A volume of ior 1 passes light straight through, whatever the roughness.
     if (m.is_volume() && m.ior == 1 && p.transmission > 0 && p.metallic < 1) return true;
     if (!TrowbridgeReitz(MicrofacetRoughness::from_perceptual(p.roughness)).effectively_smooth()) return false;

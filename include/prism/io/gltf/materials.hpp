@@ -1,6 +1,6 @@
 // prism/io/gltf/materials.hpp — glTF materials as prism's
 // MetalRoughMaterial: the metallic-roughness factors and textures, alpha
-// modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _transmission, _volume
+// modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _clearcoat, _transmission, _volume
 // and _dispersion; emission (KHR_materials_emissive_strength,
 // emissiveTexture) as AreaEmission; KHR_materials_unlit as a black surface
 // that emits its base colour; textures with their samplers (wrap and filter
@@ -62,6 +62,15 @@ class Materials {
   Materials(Document& doc, const Images& images, bool multiple_scattering)
       : m_doc(doc), m_images(images), m_multiple_scattering(multiple_scattering) {}
 
+  // A number of an extension object (`ew` names it): finite, and in [0, 1]
+  // when `unit`.
+  Float factor(const tinygltf::Value* e, const std::string& ew, const char* key, double fallback, bool unit) const {
+    double v = number(e, key, fallback);
+    m_doc.check_finite_number(v, ew + "." + key);
+    if (unit && (v < 0 || v > 1)) m_doc.fail(ew + "." + key, "must be in [0, 1]");
+    return Float(v);
+  }
+
   // The material of materials[i]; i = -1: glTF's default material.
   MetalRoughMaterial material(int i) {
     MetalRoughMaterial mat;
@@ -115,13 +124,22 @@ class Materials {
       }
       if (const auto* e = ext(g.extensions, "KHR_materials_anisotropy")) {
         std::string ew = where + ".extensions.KHR_materials_anisotropy";
-        double strength = number(e, "anisotropyStrength", 0), rotation = number(e, "anisotropyRotation", 0);
-        m_doc.check_finite_number(strength, ew + ".anisotropyStrength");
-        m_doc.check_finite_number(rotation, ew + ".anisotropyRotation");
-        if (strength < 0 || strength > 1) m_doc.fail(ew + ".anisotropyStrength", "must be in [0, 1]");
-        mat.anisotropy = Float(strength);
-        mat.anisotropy_rotation = Float(rotation);
+        mat.anisotropy = factor(e, ew, "anisotropyStrength", 0, true);
+        mat.anisotropy_rotation = factor(e, ew, "anisotropyRotation", 0, false);
         set(textures->anisotropy, texture(ref(e, "anisotropyTexture"), false, ew + ".anisotropyTexture"));
+      }
+      if (const auto* e = ext(g.extensions, "KHR_materials_clearcoat")) {
+        std::string ew = where + ".extensions.KHR_materials_clearcoat";
+        mat.clearcoat = factor(e, ew, "clearcoatFactor", 0, true);
+        mat.clearcoat_roughness = factor(e, ew, "clearcoatRoughnessFactor", 0, true);
+        set(textures->clearcoat, texture(ref(e, "clearcoatTexture"), false, ew + ".clearcoatTexture"));
+        set(textures->clearcoat_roughness,
+            texture(ref(e, "clearcoatRoughnessTexture"), false, ew + ".clearcoatRoughnessTexture"));
+        TexRef nref = ref(e, "clearcoatNormalTexture");
+        set(textures->clearcoat_normal, texture(nref, false, ew + ".clearcoatNormalTexture"));
+        double scale = nref.json ? number(nref.json, "scale", 1) : 1;
+        m_doc.check_finite_number(scale, ew + ".clearcoatNormalTexture.scale");
+        textures->clearcoat_normal_scale = Float(scale);
       }
       if (const auto* e = ext(g.extensions, "KHR_materials_transmission")) {
         mat.transmission = Float(number(e, "transmissionFactor", 0));
