@@ -404,6 +404,48 @@ TEST_CASE("KHR_materials_clearcoat: factors and textures load, bad values are er
   CHECK(coat_textures == 2);
 }
 
+// KHR_materials_iridescence: factor, film ior and thickness range reach
+// MetalRoughMaterial (defaults 1.3, 100 and 400 nm); bad values are errors;
+// IridescenceSuzanne, which requires the extension, loads.
+TEST_CASE("KHR_materials_iridescence: factors load, bad values are errors, IridescenceSuzanne loads", "[gltf][iridescence]") {
+  json m = unlit_material({0.5, 0.5, 0.5}, false);
+  m["extensions"]["KHR_materials_iridescence"] = {{"iridescenceFactor", 0.8}, {"iridescenceThicknessMaximum", 500}};
+  json g = box_gltf(1, m, {"KHR_materials_iridescence"});
+  g["extensionsRequired"] = {"KHR_materials_iridescence"};
+  auto loaded = load_gltf<RGB>(write_temp("iridescence.gltf", g));
+  CHECK(loaded.warnings.empty());
+  const auto& mat = std::get<0>(loaded.scene.materials()[0]);
+  CHECK(mat.iridescence == Approx(0.8));
+  CHECK(mat.iridescence_ior == Approx(1.3));
+  CHECK(mat.iridescence_thickness_min == Approx(100));
+  CHECK(mat.iridescence_thickness_max == Approx(500));
+  const std::pair<const char*, double> bad[] = {{"iridescenceFactor", 1.5},
+                                                {"iridescenceIor", 0.5},
+                                                {"iridescenceThicknessMaximum", -10}};
+  for (const auto& [key, value] : bad) {
+    json b = g;
+    b["materials"][0]["extensions"]["KHR_materials_iridescence"][key] = value;
+    std::string e;
+    try {
+      load_gltf<RGB>(write_temp("iridescence_bad.gltf", b));
+    } catch (const Error& err) {
+      e = err.what();
+    }
+    INFO(e);
+    CHECK(e.find(std::string("materials[0].extensions.KHR_materials_iridescence.") + key) != std::string::npos);
+  }
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto a = load_gltf<RGB>(scenes_dir + "IridescenceSuzanne/glTF-Binary/IridescenceSuzanne.glb");
+  size_t films = 0, textured = 0;
+  for (const auto& v : a.scene.materials()) {
+    const auto& mm = std::get<0>(v);
+    films += mm.iridescence > 0;
+    textured += mm.textures && mm.textures->iridescence_thickness;
+  }
+  CHECK(films == 3);
+  CHECK(textured == 1);
+}
+
 TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error when required", "[gltf][basisu]") {
   std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
   std::filesystem::create_directories(dir);

@@ -158,6 +158,29 @@ inline double fresnel_conductor(double cos_i, double eta, double k) {
   if (!(cos_i > 0)) return 1;  // grazing: r_s, r_p -> -1 (0 / 0 when eta = 1, k = 0)
   return fresnel_unpolarised(1.0, std::complex<double>(eta, k), std::clamp(cos_i, 0.0, 1.0));
 }
+// A thin film on a substrate by the characteristic-matrix method (Born &
+// Wolf, Principles of Optics, section 1.6.2; Macleod, Thin-Film Optical
+// Filters, chapter 2), a derivation independent of the Airy summation:
+// light from index n1 at cos_i meets a film (n2, thickness d) on a substrate
+// n3. With the tilted admittances eta_j = n_j cos_j (s) or n_j / cos_j (p)
+// and the film's phase thickness b = 2 pi n2 d cos_2 / lambda,
+//   [B; C] = [[cos b, i sin b / eta2], [i eta2 sin b, cos b]] [1; eta3],
+//   r = (eta1 B - C) / (eta1 B + C),
+// and R = (|r_s|^2 + |r_p|^2) / 2.
+inline double thin_film_tmm(double cos_i, double n1, double n2, double d, double n3, double lambda) {
+  using C = std::complex<double>;
+  const double s1 = n1 * std::sqrt(std::max(0.0, 1 - cos_i * cos_i));  // n sin, the same in every layer
+  auto cos_in = [&](double n) { return std::sqrt(C(1 - (s1 / n) * (s1 / n), 0)); };
+  const C c1 = cos_i, c2 = cos_in(n2), c3 = cos_in(n3);
+  const C b = 2 * pi * n2 * d * c2 / lambda;
+  auto r_of = [&](C e1, C e2, C e3) {
+    C B = std::cos(b) + C(0, 1) * std::sin(b) / e2 * e3;
+    C Cc = C(0, 1) * e2 * std::sin(b) + std::cos(b) * e3;
+    return std::norm((e1 * B - Cc) / (e1 * B + Cc));
+  };
+  return (r_of(n1 * c1, n2 * c2, n3 * c3) + r_of(n1 / c1, n2 / c2, n3 / c3)) / 2;
+}
+
 // Schlick 1994 ("An inexpensive BRDF model for physically-based rendering",
 // eq. 24), the glTF 2.0 specification's Fresnel: F0 + (1 - F0)(1 - c)^5.
 inline double fresnel_schlick(double f0, double c) { return f0 + (1 - f0) * std::pow(1 - c, 5); }

@@ -80,6 +80,7 @@
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/ms_compensation.hpp"
+#include "prism/bxdfs/thin_film.hpp"
 #include "prism/bxdfs/volume.hpp"
 #include "prism/error.hpp"
 #include "prism/geometry/interaction.hpp"
@@ -103,7 +104,10 @@ inline Float schlick_weight(Float c) {
 }
 inline Float schlick_complement(Float c) {
   c = std::clamp(c, Float(0), Float(1));
-  return c * (5 + c * (-10 + c * (10 + c * (-5 + c))));
+  // The polynomial rounds a few ulps above 1 for c just below 1, which would
+  // make F = 1 - (1 - F0)(1 - s) of a channel with F0 = 0 slightly negative
+  // (a yellow specular colour's blue): at most 1.
+  return std::min(Float(1), c * (5 + c * (-10 + c * (10 + c * (-5 + c)))));
 }
 }  // namespace detail
 
@@ -475,16 +479,58 @@ class MetalRoughBxDF {
 
   // The Fresnel factors (c = |wo.wm|, or |cos theta| for the base coupling).
   // Reflection: (1 - metallic) w F(c) + metallic F_metal(c), per channel.
+  // With iridescence each Fresnel factor is mix(F, film(c), factor), the
+  // film's reflectance over the layer's ior or the metal's (set_iridescence).
   S specular_fresnel(Float c) const {
     Float sc = detail::schlick_complement(c);
     S out{};
-    if (m_w > 0 && m_layer_k > 0) out += (S(1) - (S(1) - m_f0) * sc) * (m_layer_k * m_w);
-    if (m_metallic > 0) out += (S(1) - (S(1) - m_base) * sc) * m_metallic;
+    const Float f = m_irid.factor;
+    if (m_w > 0 && m_layer_k > 0) {
+      S layer = S(1) - (S(1) - m_f0) * sc;
+      if (f > 0) layer = layer * (1 - f) + film(c, S(m_irid.n_layer)) * f;
+      out += layer * (m_layer_k * m_w);
+    }
+    if (m_metallic > 0) {
+      S metal = S(1) - (S(1) - m_base) * sc;
+      if (f > 0) metal = metal * (1 - f) + film(c, m_irid.n_metal) * f;
+      out += metal * m_metallic;
+    }
     return out;
   }
   // What the Fresnel layer leaves to the base: 1 - w Fmax(c)
-  // = (1 - w) + w (1 - F0max)(1 - s(c)), without cancellation.
-  Float base_weight(Float c) const { return (1 - m_w) + m_w * (1 - m_f0_max) * detail::schlick_complement(c); }
+  // = (1 - w) + w (1 - F0max)(1 - s(c)), without cancellation. With
+  // iridescence Fmax is (1 - factor) Fmax(c) + factor max(film(c)), at
+  // least the largest channel of the mixed F: the base never gets more than
+  // the layer leaves.
+  Float base_weight(Float c) const {
+    const Float plain = (1 - m_w) + m_w * (1 - m_f0_max) * detail::schlick_complement(c);
+    if (!(m_irid.factor > 0) || !(m_w > 0)) return plain;
+    const Float f = m_irid.factor;
+    const Float schlick_max = 1 - (1 - m_f0_max) * detail::schlick_complement(c);
+    return std::max(Float(0), 1 - m_w * ((1 - f) * schlick_max + f * film(c, S(m_irid.n_layer)).max_component()));
+  }
+
+  // KHR_materials_iridescence: a thin film (index n_film, thickness d_nm
+  // nanometres) over the dielectric layer (index n_layer, its ior) and over
+  // the metal (per channel or wavelength the index whose F0 is the base
+  // colour, ior_from_f0), seen in the Fresnel factors as mix(F, R_film,
+  // factor), R_film from thin_film.hpp at the half vector's cosine: per
+  // wavelength in spectral mode (`lambda`, the path's wavelengths), its
+  // colour under D65 in RGB mode. factor 0 or d_nm 0 leaves the material as
+  // it was. The glass lobe of a refracting volume keeps its own Fresnel.
+  void set_iridescence(Float factor, Float n_film, Float d_nm, Float n_layer, const S& n_metal, const S& lambda) {
+    if (!(factor > 0) || !(d_nm > 0)) {
+      m_irid = {};
+      return;
+    }
+    m_irid.factor = std::min(factor, Float(1));
+    m_irid.n_film = n_film;
+    m_irid.d = d_nm;
+    m_irid.n_layer = n_layer;
+    m_irid.n_metal = n_metal;
+    m_irid.lambda = lambda;
+  }
+  Float iridescence() const { return m_irid.factor; }
   // With the compensation: the directional albedo E_l(mu) of the compensated
   // layer of F0max (enable_multiple_scattering), at most 1.
   Float layer_albedo(const MS& ms, Float mu) const {
@@ -502,6 +548,19 @@ class MetalRoughBxDF {
   Float transmission() const { return (1 - m_metallic) > 0 ? (m_trans_k + m_glass_k) / (1 - m_metallic) : 0; }
 
  private:
+  // The film's reflectance at cos c over substrates of index n (per channel
+  // or wavelength).
+  S film(Float c, const S& n) const {
+    if constexpr (spectrum_traits<S>::is_spectral) {
+      S out{};
+      for (int i = 0; i < S::size; ++i)
+        out[i] = thin_film_reflectance(c, m_irid.n_film, m_irid.d, n[i], m_irid.lambda[i]);
+      return out;
+    } else {
+      return thin_film_reflectance_rgb(c, m_irid.n_film, m_irid.d, n);
+    }
+  }
+
   // The microfacet lobe at (wo, wi), both in the upper hemisphere:
   // D G / (4 cos_o cos_i), its sampling density G1(wo) D / (4 cos_o), and
   // c = wo.wm. False where both are 0 (a degenerate half vector, D = 0).
@@ -616,6 +675,11 @@ class MetalRoughBxDF {
   DielectricBxDF<S> m_glass;
   Float m_glass_k = 0;  // (1 - metallic) T for a refractive volume, else 0
   bool m_ms = false;  // enable_multiple_scattering()
+  struct Iridescence {
+    Float factor = 0, n_film = 1, d = 0, n_layer = 1;
+    S n_metal{}, lambda{};
+  };
+  Iridescence m_irid;  // set_iridescence()
   Float m_coat = 0;   // set_clearcoat()
   TrowbridgeReitz m_coat_distrib;
   Frame m_coat_frame;
@@ -653,6 +717,10 @@ struct MetalRoughTextures {
   std::optional<ImageTexture> clearcoat_roughness;
   std::optional<ImageTexture> clearcoat_normal;
   Float clearcoat_normal_scale = 1;
+  // KHR_materials_iridescence, linear: R x iridescence; G picks the film's
+  // thickness between iridescence_thickness_min and _max.
+  std::optional<ImageTexture> iridescence;
+  std::optional<ImageTexture> iridescence_thickness;
 };
 
 // glTF alphaMode: opaque ignores alpha; mask keeps a surface where alpha >=
@@ -686,6 +754,14 @@ struct MetalRoughMaterial {
   // and normal (MetalRoughBxDF::set_clearcoat). 0: no coat, as before.
   Float clearcoat = 0;
   Float clearcoat_roughness = 0;
+  // KHR_materials_iridescence: a thin film of index iridescence_ior and a
+  // thickness in nanometres (iridescence_thickness_max, or between min and
+  // max by the thickness texture) over the material, mixed into its Fresnel
+  // factors by this weight in [0, 1] (MetalRoughBxDF::set_iridescence). 0:
+  // none, as before.
+  Float iridescence = 0;
+  Float iridescence_ior = 1.3f;
+  Float iridescence_thickness_min = 100, iridescence_thickness_max = 400;
   Float alpha = 1;                // baseColorFactor's alpha
   AlphaMode alpha_mode = AlphaMode::opaque;
   Float alpha_cutoff = 0.5f;
@@ -718,7 +794,7 @@ namespace detail {
 struct MetalRoughParams {
   RGB base{0}, dielectric_f0{0};
   Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
-  Float anisotropy = 0, clearcoat = 0, clearcoat_roughness = 0;
+  Float anisotropy = 0, clearcoat = 0, clearcoat_roughness = 0, iridescence = 0, iridescence_thickness = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
 inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
@@ -730,12 +806,16 @@ struct MetalRoughFactors {
   Float transmission;
   Float anisotropy;
   Float clearcoat, clearcoat_roughness;
+  Float iridescence, iridescence_thickness;  // the film's thickness in nm
 };
+// The film's thickness: a material's maximum (no texture), a hit's textured value.
+inline Float film_thickness(const MetalRoughMaterial& m) { return m.iridescence_thickness_max; }
+inline Float film_thickness(const MetalRoughFactors& f) { return f.iridescence_thickness; }
 // The material's values at a hit: factors times textures times vertex colour.
 inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
   MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,    m.ior,
                       m.specular,              m.specular_color, m.transmission, m.anisotropy,
-                      m.clearcoat,             m.clearcoat_roughness};
+                      m.clearcoat,             m.clearcoat_roughness, m.iridescence, m.iridescence_thickness_max};
   if (const MetalRoughTextures* t = m.textures.get()) {
     if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
     if (t->metallic_roughness) {
@@ -751,6 +831,11 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
     if (t->clearcoat && v.clearcoat != 0) v.clearcoat *= t->clearcoat->evaluate(texcoord(*t->clearcoat, si)).rgb.r;
     if (t->clearcoat_roughness && v.clearcoat != 0)
       v.clearcoat_roughness *= t->clearcoat_roughness->evaluate(texcoord(*t->clearcoat_roughness, si)).rgb.g;
+    if (t->iridescence && v.iridescence != 0) v.iridescence *= t->iridescence->evaluate(texcoord(*t->iridescence, si)).rgb.r;
+    if (t->iridescence_thickness && v.iridescence != 0) {
+      Float g = t->iridescence_thickness->evaluate(texcoord(*t->iridescence_thickness, si)).rgb.g;
+      v.iridescence_thickness = m.iridescence_thickness_min + (m.iridescence_thickness_max - m.iridescence_thickness_min) * g;
+    }
   }
   return v;
 }
@@ -805,6 +890,9 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   note("clearcoat", m.clearcoat, p.clearcoat);
   p.clearcoat_roughness = unit_or_zero(m.clearcoat_roughness);
   note("clearcoat_roughness", m.clearcoat_roughness, p.clearcoat_roughness);
+  p.iridescence = unit_or_zero(m.iridescence);
+  note("iridescence", m.iridescence, p.iridescence);
+  p.iridescence_thickness = std::max(film_thickness(m), Float(0));
   Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
   for (int i = 0; i < 3; ++i) {
     Float sc = m.specular_color[i] > 0 && std::isfinite(m.specular_color[i]) ? m.specular_color[i] : Float(0);
@@ -850,6 +938,15 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     MetalRoughBxDF<S> b(distrib, base, f0, f0_max, p.specular, p.metallic, p.transmission);
     if (m.is_volume() && p.transmission > 0 && p.metallic < 1) b.make_refractive(path_eta(m.volume_ior(), lambda));
     if (m.multiple_scattering) b.enable_multiple_scattering();
+    if (p.iridescence > 0 && p.iridescence_thickness > 0) {
+      S n_metal{}, lam{};
+      for (int i = 0; i < S::size; ++i) n_metal[i] = ior_from_f0(base[i]);
+      if constexpr (spectrum_traits<S>::is_spectral)
+        for (int i = 0; i < S::size; ++i) lam[i] = lambda[i];
+      // ior 0 (F0 = 1): the film over a perfect mirror.
+      b.set_iridescence(p.iridescence, m.iridescence_ior, p.iridescence_thickness, m.ior == 0 ? Float(1e4) : m.ior,
+                        n_metal, lam);
+    }
     if (p.clearcoat > 0) b.set_clearcoat(p.clearcoat, TrowbridgeReitz(sqr(p.clearcoat_roughness), sqr(p.clearcoat_roughness)),
                                          clearcoat_normal(m, si));
     return b;
@@ -902,6 +999,19 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     check_finite("anisotropy_rotation", m.anisotropy_rotation);
     check_finite("clearcoat", m.clearcoat);
     check_finite("clearcoat_roughness", m.clearcoat_roughness);
+    check_finite("iridescence", m.iridescence);
+    if (!(m.iridescence_ior >= 1) || !(m.iridescence_ior < infinity)) {
+      std::ostringstream s;
+      s << "iridescence_ior = " << m.iridescence_ior << " must be finite and >= 1";
+      fail(s.str());
+    }
+    if (!(m.iridescence_thickness_min >= 0) || !(m.iridescence_thickness_max >= 0) ||
+        !(m.iridescence_thickness_min < infinity) || !(m.iridescence_thickness_max < infinity)) {
+      std::ostringstream s;
+      s << "iridescence thickness [" << m.iridescence_thickness_min << ", " << m.iridescence_thickness_max
+        << "] nm must be finite and >= 0";
+      fail(s.str());
+    }
     if (m.ior != 0 && !(m.ior >= 1)) {
       std::ostringstream s;
       s << "ior = " << m.ior << " must be >= 1 (or exactly 0 for F0 = 1, as in KHR_materials_ior)";

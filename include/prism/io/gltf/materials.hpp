@@ -1,6 +1,7 @@
 // prism/io/gltf/materials.hpp — glTF materials as prism's
 // MetalRoughMaterial: the metallic-roughness factors and textures, alpha
-// modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _clearcoat, _transmission, _volume
+// modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _clearcoat, _iridescence,
+// _transmission, _volume
 // and _dispersion; emission (KHR_materials_emissive_strength,
 // emissiveTexture) as AreaEmission; KHR_materials_unlit as a black surface
 // that emits its base colour; textures with their samplers (wrap and filter
@@ -140,6 +141,19 @@ class Materials {
         double scale = nref.json ? number(nref.json, "scale", 1) : 1;
         m_doc.check_finite_number(scale, ew + ".clearcoatNormalTexture.scale");
         textures->clearcoat_normal_scale = Float(scale);
+      }
+      if (const auto* e = ext(g.extensions, "KHR_materials_iridescence")) {
+        std::string ew = where + ".extensions.KHR_materials_iridescence";
+        mat.iridescence = factor(e, ew, "iridescenceFactor", 0, true);
+        mat.iridescence_ior = factor(e, ew, "iridescenceIor", 1.3, false);
+        if (!(mat.iridescence_ior >= 1)) m_doc.fail(ew + ".iridescenceIor", "must be >= 1");
+        mat.iridescence_thickness_min = factor(e, ew, "iridescenceThicknessMinimum", 100, false);
+        mat.iridescence_thickness_max = factor(e, ew, "iridescenceThicknessMaximum", 400, false);
+        if (mat.iridescence_thickness_min < 0) m_doc.fail(ew + ".iridescenceThicknessMinimum", "is negative");
+        if (mat.iridescence_thickness_max < 0) m_doc.fail(ew + ".iridescenceThicknessMaximum", "is negative");
+        set(textures->iridescence, texture(ref(e, "iridescenceTexture"), false, ew + ".iridescenceTexture"));
+        set(textures->iridescence_thickness,
+            texture(ref(e, "iridescenceThicknessTexture"), false, ew + ".iridescenceThicknessTexture"));
       }
       if (const auto* e = ext(g.extensions, "KHR_materials_transmission")) {
         mat.transmission = Float(number(e, "transmissionFactor", 0));
