@@ -140,6 +140,7 @@ TEST_CASE("rough dielectric white furnace in importance transport is at most 1, 
       // Smooth: every sample weighs exactly 1.
       for (Float a : {0.f, 1e-4f}) {
         Albedo s = albedo(sweep_dielectric<RGB>(a), wo, TransportMode::importance, 0, 2000, rng);
+        // 1e-5, σ < 1e-6: each weight is 1 up to ~10 float roundings (6e-7)
         CHECK(s.mean == Approx(1).margin(1e-5));
         CHECK(s.sigma < 1e-6);
       }
@@ -197,17 +198,20 @@ TEST_CASE("rough dielectric: reflection is reciprocal, transmission adjoint, sam
       auto imp = [&](Vector3f o, Vector3f in) { return bxdf.eval(o, in, TransportMode::importance)[0]; };
       INFO("alpha " << a << " x " << x.x << " " << x.y << " " << x.z << " y " << y.x << " " << y.y << " " << y.z);
       if (same_hemisphere(x, y)) {
+        // 1e-4 relative: both orders share the float half vector; a few u in wo·h vs wi·h times Fresnel's conditioning
         CHECK(rad(x, y) == Approx(rad(y, x)).epsilon(1e-4).margin(1e-30));
         CHECK(rad(x, y) == imp(x, y));
       } else {
         // f_radiance(wo, wi) = f_importance(wi, wo); radiance carries the
         // 1/eta'^2 of the crossing (eta' = eta when wo is outside).
         Float etap = x.z > 0 ? eta : 1 / eta;
+        // 1e-5 relative: one float division by η'² plus the eval's own roundings
         CHECK(rad(x, y) == Approx(imp(x, y) / (etap * etap)).epsilon(1e-5).margin(1e-30));
         // Both sides evaluate the same Fresnel T from their own cosine with
         // the microfacet; near the critical angle T has an infinite slope and
         // float cosines decide, so compare where both cosines exceed 0.05.
         Vector3f wm = normalize(y * etap + x);
+        // cos > 0.05 bounds Fresnel T's condition number by ~1/cos² = 400: 400 × a few u ≈ 1e-4
         if (std::abs(dot(x, wm)) > 0.05f && std::abs(dot(y, wm)) > 0.05f) {
           CHECK(rad(x, y) == Approx(imp(y, x)).epsilon(1e-4).margin(1e-30));
           ++compared;
@@ -268,7 +272,9 @@ TEST_CASE("nearly smooth rough dielectric converges to the smooth interface", "[
       double sigma = std::sqrt(n * double(R) * (1 - R));
       INFO("theta " << theta << " side " << side << ": reflected " << reflected << " of " << n << ", R " << R);
       CHECK(failed < n / 500);
+      // 0.002·n: up to n/500 samples may fail (checked above), plus the O(α²) = 1e-6 model error
       CHECK(std::abs(reflected - n * double(R)) <= z * sigma + 0.002 * n);
+      // 0.2 rad bounds a maximum over 20000 GGX samples: fitted, not derived (P(tan θm > s) ≈ α²/s² per sample)
       if (snell && R < 1) CHECK(max_dev < 0.2);  // GGX tails: rare, but bounded
     }
   // The smooth path is taken exactly below the threshold, and for eta = 1.
@@ -286,6 +292,7 @@ TEST_CASE("nearly smooth rough dielectric converges to the smooth interface", "[
   CHECK(matched.flags() == BxDFFlags::specular_transmission);
   auto through = matched.sample(direction_at(40), 0.5f, {0.5f, 0.5f}, TransportMode::radiance);
   REQUIRE(through);
+  // bare Approx: Catch's 100·FLT_EPSILON relative, a few float roundings of a unit direction
   CHECK(through->wi.x == Approx(-direction_at(40).x));
   CHECK(through->wi.z == Approx(-direction_at(40).z));
 }
@@ -353,7 +360,7 @@ TEST_CASE("thin dielectric reflectance equals the summed bounce series, furnace 
         double R = fresnel_dielectric(abs_cos_theta(wo), eta);
         RGB Rt = thin.reflectance(abs_cos_theta(wo));
         INFO("eta " << eta << " theta " << theta << " side " << side);
-        CHECK(Rt.g == Approx(thin_slab_series(R)).margin(1e-6));
+        CHECK(Rt.g == Approx(thin_slab_series(R)).margin(1e-6));  // 1e-6: R + T²R/(1 − R²) in float, ~8 roundings of values ≤ 1
         CHECK(Rt.g >= R);  // the slab reflects more than one interface
         // Sampled lobes: directions, weights and frequencies.
         const int n = 20000;
@@ -369,7 +376,7 @@ TEST_CASE("thin dielectric reflectance equals the summed bounce series, furnace 
             // Furnace: every sample weighs 1.
             double err = std::abs(double(bs->f.g) * abs_cos_theta(bs->wi) / bs->pdf - 1);
             max_weight_err = std::max(max_weight_err, err);
-            if (err > 1e-5) ++bad_weight;
+            if (err > 1e-5) ++bad_weight;  // 1e-5: f·|cos|/pdf in float, a few roundings (≲ 6e-7)
             if (bs->is_transmission()) {
               if (!(bs->wi == -wo)) ++bad_direction;
             } else {
@@ -383,10 +390,12 @@ TEST_CASE("thin dielectric reflectance equals the summed bounce series, furnace 
         CHECK(bad_weight == 0);
         CHECK(bad_direction == 0);
         double sigma = std::sqrt(n * double(Rt.g) * (1 - Rt.g));
+        // z: Šidák as above; +1 for the integer count
         CHECK(std::abs(reflected - n * double(Rt.g)) <= z * sigma + 1);
       }
   }
   // Normal incidence, eta 1.5: R = 0.04, R' = 0.08 / 1.04.
+  // 1e-7 ≈ 13 ulps of 0.077: a few float roundings of the slab series
   CHECK(ThinDielectricBxDF<RGB>(1.5f).reflectance(1).g == Approx(0.08 / 1.04).margin(1e-7));
   ThinDielectricBxDF<RGB> thin(1.5f);
   CHECK(thin.eval(direction_at(30), direction_at(30, 3.8), TransportMode::radiance).is_black());
@@ -424,6 +433,8 @@ TEST_CASE("thin dielectric material: per-wavelength eta without termination, val
         for (int i = 0; i < 4; ++i) sum[i] += bs->f[i] * abs_cos_theta(bs->wi) / bs->pdf / n;
       }
       INFO("theta " << theta << " side " << side);
+      // 2e-3: midpoint rule over n = 4000 on a step: the fraction is off by ≤ 1/(2n) = 1.25e-4, times the
+      // weights' spread across wavelengths (≲ 10 at 89.9°, where T' → 0)
       for (int i = 0; i < 4; ++i) CHECK(sum[i] == Approx(1).margin(2e-3));
     }
   CHECK(TR::make(pane, si, RGBWavelengths{}).eta() == RGB(pane.ior.eta_d()));
