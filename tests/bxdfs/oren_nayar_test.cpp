@@ -86,8 +86,8 @@ TEST_CASE("Oren-Nayar furnace: albedo at most rho, exactly rho at sigma 0 and at
   OrenNayarBxDF<RGB> coloured(RGB(0.9f, 0.5f, 0.1f), 1.f);
   for (int c = 0; c < 3; ++c) {
     Albedo a = albedo(coloured, direction_at(45), TransportMode::radiance, c, 50000, rng);
+    // z = 4 as above, 3 estimates
     CHECK(a.mean <= coloured.reflectance()[c] + 4 * a.sigma);
-  // z = 4 as above, 3 estimates
   }
   WARN(out.str());
 }
