@@ -315,6 +315,7 @@ TEST_CASE("rough dielectric is finite at grazing angles, roughness 0, 1e-4, the 
             check_finite<DielectricBxDF<RGB>, RGB>(b, wo, wi, rng);
           Albedo al = albedo(b, wo, TransportMode::importance, 0, 2000, rng);
           CHECK(std::isfinite(al.mean));
+          // +1e-5: float rounding of weights ≤ 1 at degenerate inputs (a few u, with room for 1/cos near grazing)
           CHECK(al.mean <= 1 + z * al.sigma + 1e-5);
         }
 }
