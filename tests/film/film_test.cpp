@@ -61,7 +61,7 @@ TEST_CASE("box filter offsets are uniform over the pixel", "[film][filter]") {
 TEST_CASE("film accumulates means and the variance of the mean", "[film]") {
   Film film(2, 1);
   const double vals[4] = {1, 2, 3, 6};
-  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, float sums of 4 small integers and their squares
+  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative; the film sums in double and rounds once to float
   for (double v : vals) film.add_sample(1, 0, RGB(Float(v)), 1);
   CHECK(film.pixel(1, 0).r == Approx(3.0));
   // Sample variance (n - 1) = 14/3; of the mean: 14/12.

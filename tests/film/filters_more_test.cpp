@@ -228,7 +228,7 @@ TEST_CASE("every filter keeps a constant image constant through render", "[film]
     for (int y = 0; y < 4; ++y)
       for (int x = 0; x < 6; ++x) {
         INFO(name << " pixel " << x << "," << y);
-        // 1e-5 relative: a uniform scene: each filter's weighted mean of equal float values, ~16 spp of float sums
+        // 1e-5 relative: a uniform scene: each pixel is a weighted mean of equal float values, summed in double, rounded once
         CHECK(film.pixel(x, y).b == Approx(0.75f).epsilon(1e-5));
         CHECK(film.pixel(x, y).r == Approx(0.25f).epsilon(1e-5));
       }

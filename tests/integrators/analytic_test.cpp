@@ -136,7 +136,7 @@ void white_furnace() {
         double v = film.pixel(x, y).g, sigma = std::sqrt(double(film.variance(x, y).g));
         INFO("integrator " << which << " pixel " << x << "," << y << " value " << v << " sigma " << sigma);
         // A pixel may be exactly 1 with zero variance (it sees only the environment).
-        // 1e-5 where σ is 0 (a pixel that sees only the environment): float sums of values 1 (a few u each)
+        // 1e-5 where σ is 0 (a pixel that sees only the environment): values 1 up to a few u, averaged in double
         CHECK(std::abs(v - 1.0) <= std::max(z * sigma, 1e-5));
       }
   }

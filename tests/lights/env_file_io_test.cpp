@@ -262,8 +262,8 @@ TEST_CASE("image infinite light sampling matches pdf_li on the shared HDR map", 
     }
     auto r = prism_test::chi2_from_counts(observed, expected);
     INFO((incomplete ? "compensated" : "full") << " density, whole map: " << r.summary() << ", integral " << total);
-    // 1e-4: each float pdf carries a few roundings (≲ 1e-6), its normalisation a float total over the map's
-    // texels (pairwise or Kahan-like sums stay ≲ 1e-5), and the texel centre's round trip through the rotation
+    // 1e-4: each float pdf carries a few roundings (≲ 1e-6; the distribution sums in double) and the texel
+    // centre's float round trip through the rotation; summed in double over the map
     CHECK(total == Approx(1).epsilon(1e-4));
     CHECK(r.impossible == 0);
     CHECK(observed.back() == 0);

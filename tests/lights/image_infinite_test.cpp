@@ -210,7 +210,7 @@ TEST_CASE("image infinite light estimates the integral of Le and of one over pdf
   double mean = s / n, sigma = std::sqrt((s2 / n - mean * mean) / (n - 1));
   double imean = inv / n, isigma = std::sqrt((inv2 / n - imean * imean) / (n - 1));
   INFO("integral " << expected.g << " estimate " << mean << " sigma " << sigma);
-  // 1e-4·expected: the float pdf's normalisation, a float sum over 512 texels (≲ 512u = 3e-5)
+  // 1e-4·expected: each weight Le/pdf carries a few float roundings (the pdf rounded to float from double sums)
   CHECK(std::abs(mean - expected.g) <= z * sigma + 1e-4 * expected.g);
   INFO("4 pi " << 4 * kPi << " estimate " << imean << " sigma " << isigma);
   CHECK(std::abs(imean - 4 * kPi) <= z * isigma);
@@ -259,7 +259,7 @@ TEST_CASE("MIS with the compensated density and cosine sampling is unbiased", "[
   }
   double mean = s / n, sigma = std::sqrt((s2 / n - mean * mean) / (n - 1));
   INFO("exact " << exact << " MIS estimate " << mean << " sigma " << sigma);
-  // 2e-4·exact: the reference's midpoint rule on 16×16 subcells (h ≈ 0.012 rad: h²/24 ≈ 6e-6, more at the horizon's kink) and the float pdf's 3e-5
+  // 2e-4·exact: the reference's midpoint rule on 16×16 subcells (h ≈ 0.012 rad: h²/24 ≈ 6e-6, more at the horizon's kink) and the float pdf's few u
   CHECK(std::abs(mean - exact) <= reference_physics::sidak_z(1e-3, 1) * sigma + 2e-4 * exact);
 }
 

@@ -73,7 +73,7 @@ TEST_CASE("AOVs of a diffuse plane: albedo, normal and depth, zeros where nothin
       if (on == 1) {
         ++hit;
         RGB al = aovs.albedo(x, y);
-        // 1e-5: the AOV averages the same float albedo over the pixel's samples (float sums: ≲ 100 roundings of values < 1)
+        // 1e-5: the AOV averages the same float albedo over the pixel's samples in double and rounds once
         CHECK(al.r == Approx(rho.r).margin(1e-5));
         CHECK(al.g == Approx(rho.g).margin(1e-5));
         CHECK(al.b == Approx(rho.b).margin(1e-5));
@@ -124,7 +124,7 @@ TEST_CASE("spectral AOV albedo of a grey plane is its reflectance within the noi
   // pixels - 1 degrees of freedom, one comparison at 10^-3.
   const double t = reference_physics::sidak_t(1e-3, 1, double(g.size() - 1));
   INFO("mean " << mean << " sigma " << sigma << " t " << t << " pixels " << g.size());
-  // +1e-6 for the float sums of the pixels (each value a few u)
+  // +1e-6 for the float rounding of each pixel (a few u)
   CHECK(std::abs(mean - 0.5) < t * sigma + 1e-6);
 }
 
