@@ -107,6 +107,8 @@ TEST_CASE("D integrates to 1 over the projected area, D_visible to 1 over the he
     double amin = std::min(d.alpha_x(), d.alpha_y());
     double proj = integrate_hemisphere([&](double t, double p) { return double(d.D(sph(t, p))) * std::cos(t); }, amin);
     INFO("alpha (" << a.ax << ", " << a.ay << "): integral of D cos " << proj);
+    // 2e-4: the Gauss–Legendre quadrature's and float D's error. Float D is off by ≤ float_tol + 8u/α per point,
+    // which exceeds 2e-4 only below α ≈ 0.003 and averages out over the lobe (measured: 7.6e-8 for D cos, 3.4e-6 for D_visible)
     CHECK(proj == Approx(1).margin(2e-4));
     worst_d = std::max(worst_d, std::abs(proj - 1));
     for (double side : {1.0, -1.0})
