@@ -186,18 +186,23 @@ TEST_CASE("a scene with the extended set renders Oren-Nayar: Lambert at sigma 0,
   double ratio_rough = on2.pixel(limb, c).g / on2.pixel(c, c).g;
   INFO("limb / centre: Lambert " << ratio_lambert << ", Oren-Nayar sigma 1 " << ratio_rough);
   CHECK(ratio_lambert > 0);
+  // With wi = wo Fujii's f is rho A (1 + sigma sin^2 / cos): 2.2x Lambert's relative to the centre at
+  // 0.83 of the radius; 1.2 only asks for the direction of the effect.
   CHECK(ratio_rough > 1.2 * ratio_lambert);
   // Spectral mode agrees with RGB on a grey material (a flat spectrum): one
   // bounce, deterministic light; only the wavelength sampling differs.
-  double sum_rgb = 0, sum_spectral = 0;
+  double sum_rgb = 0, sum_spectral = 0, var = 0;
   for (int y = 0; y < on2.height(); ++y)
     for (int x = 0; x < on2.width(); ++x) {
       sum_rgb += on2.pixel(x, y).g;
       sum_spectral += on2s.pixel(x, y).g;
+      var += double(on2.variance(x, y).g) + double(on2s.variance(x, y).g);
     }
-  // 0.02: wavelength-sampling noise over ~7000 camera samples (σ ≈ 4e-3 if a sample's relative σ is ≈ 0.3; not measured)
-  // plus the uplift's 1e-3 goal
-  CHECK(sum_spectral == Approx(sum_rgb).epsilon(0.02));
+  // The sums' difference within z sigma (pixels independent; the renders share their camera samples,
+  // which only lowers the difference's variance) plus 1e-3 for the 1 nm tables against the renderer's
+  // interpolated ones and the uplift (tests/integrators/volume_test.cpp); it was a bare 2%.
+  INFO("RGB " << sum_rgb << " spectral " << sum_spectral << " sigma " << std::sqrt(var));
+  CHECK(std::abs(sum_spectral - sum_rgb) <= reference_physics::sidak_z(1e-3, 1) * std::sqrt(var) + 1e-3 * sum_rgb);
 }
 
 }  // namespace oren_nayar_test
