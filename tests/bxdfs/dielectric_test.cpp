@@ -11,6 +11,7 @@
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/sampling/pcg32.hpp"
 #include "prism/spectra/sampled.hpp"
+#include "support/reference_physics.hpp"
 
 namespace dielectric_test {
 
@@ -112,12 +113,14 @@ TEST_CASE("prism deviation at 10 wavelengths matches Snell's law with Sellmeier 
     double err = std::abs(*dev - ref);
     max_err = std::max(max_err, err);
     INFO("lambda " << lambda << " nm: deviation " << *dev << " rad, reference " << ref << ", error " << err);
+    // 1e-5 rad: two float refractions (~10 roundings of unit components each, ≤ 6e-7) amplified ≤ ~5 at the 65° entry, plus float Sellmeier n (dδ/dn ≈ 3 rad × 1e-7)
     CHECK(err < 1e-5);
     CHECK(w.secondary_terminated());  // dispersive: only the hero goes on
     CHECK(ref < prev);                // blue bends more than red
     prev = ref;
   }
   // The spread is what makes a rainbow: about 10.5 degrees from 400 to 760 nm.
+  // 1e-3 rad ≈ 0.06°: the spread is quoted as "about 10.5 degrees" (0.1831 rad to 4 digits); double arithmetic, no rounding to speak of
   CHECK(prism_deviation_reference(n_sf11(400), A, theta1) - prism_deviation_reference(n_sf11(760), A, theta1) ==
         Approx(0.1831).margin(1e-3));
   WARN("prism deviation: max |error| " << max_err << " rad over 10 wavelengths");
@@ -130,6 +133,7 @@ TEST_CASE("Fresnel reflectance: textbook s/p formulas, R + T = 1, normal inciden
     INFO("eta " << eta);
     // Normal incidence from either side.
     double r0 = ((eta - 1) / (eta + 1)) * ((eta - 1) / (eta + 1));
+    // 1e-7: float Fresnel at normal incidence, ~6 roundings of r0 ≤ 0.17: 6·2^-24·0.17 ≈ 6e-8
     CHECK(fresnel_dielectric(1, Float(eta)) == Approx(r0).margin(1e-7));
     CHECK(fresnel_dielectric(-1, Float(eta)) == Approx(r0).margin(1e-7));
     for (int deg = 0; deg < 90; ++deg) {
@@ -138,7 +142,9 @@ TEST_CASE("Fresnel reflectance: textbook s/p formulas, R + T = 1, normal inciden
       // Outside in.
       FresnelRef o = fresnel_reference(c, 1, eta);
       Float R = fresnel_dielectric(Float(c), Float(eta));
+      // 1e-12: the double reference's own rounding (~20 roundings of 2^-53 ≈ 2e-15), with room for cancellation near grazing
       CHECK(o.R + o.T == Approx(1).margin(1e-12));
+      // 1e-6: float Fresnel, ~15 roundings of terms ≤ 1: 15·2^-24 ≈ 9e-7
       CHECK(double(R) + o.T == Approx(1).margin(1e-6));
       max_err = std::max(max_err, std::abs(double(R) - o.R));
       // Inside out (cos < 0).
@@ -155,10 +161,12 @@ TEST_CASE("Fresnel reflectance: textbook s/p formulas, R + T = 1, normal inciden
     FresnelRef b = fresnel_reference(std::cos(tb), 1, eta);
     double ct = std::cos(std::asin(std::sin(tb) / eta));
     double rs = (std::cos(tb) - eta * ct) / (std::cos(tb) + eta * ct);
+    // 1e-12: double rounding of both references; 1e-6 as above (float Fresnel, ~15 roundings)
     CHECK(b.R == Approx(rs * rs / 2).margin(1e-12));
     CHECK(fresnel_dielectric(Float(std::cos(tb)), Float(eta)) == Approx(rs * rs / 2).margin(1e-6));
   }
   INFO("max |R - reference| " << max_err);
+  // 1e-6: the float Fresnel bound above, over all angles and etas
   CHECK(max_err < 1e-6);
   WARN("Fresnel: max |R - double reference| " << max_err);
   // Critical angle of eta = 1.5 from inside: 41.81 degrees.
@@ -166,7 +174,7 @@ TEST_CASE("Fresnel reflectance: textbook s/p formulas, R + T = 1, normal inciden
   CHECK(fresnel_dielectric(-std::cos(radians(41.9f)), 1.5f) == 1);
 }
 
-TEST_CASE("sampled lobes: reflect/transmit frequencies match Fresnel (4 sigma), directions obey Snell", "[bxdfs][dielectric][sampling]") {
+TEST_CASE("sampled lobes: reflect/transmit frequencies match Fresnel (Sidak z), directions obey Snell", "[bxdfs][dielectric][sampling]") {
   PCG32 rng(5, 20240611);
   const int n = 100000;
   for (Float eta : {1.33f, 1.5f, 2.42f}) {
@@ -189,6 +197,7 @@ TEST_CASE("sampled lobes: reflect/transmit frequencies match Fresnel (4 sigma), 
               CHECK(bs->wi.x == -wo.x);
               CHECK(bs->wi.y == -wo.y);
               CHECK(bs->wi.z == wo.z);
+              // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, a few float roundings of the pdf and eta
               CHECK(bs->pdf == Approx(R));
               CHECK(bs->eta == 1);
             }
@@ -199,6 +208,7 @@ TEST_CASE("sampled lobes: reflect/transmit frequencies match Fresnel (4 sigma), 
               Float etap = side > 0 ? eta : 1 / eta;
               CHECK(bs->eta == Approx(etap));
               CHECK(bs->wi.z * wo.z < 0);
+              // 1e-6: float refraction, ~8 roundings of unit components: 8·2^-24 ≈ 5e-7
               CHECK(length(bs->wi) == Approx(1).margin(1e-6));
               // Snell: the tangential part flips and shrinks by 1/eta'.
               CHECK(bs->wi.x == Approx(-wo.x / etap).margin(1e-6));
@@ -215,7 +225,8 @@ TEST_CASE("sampled lobes: reflect/transmit frequencies match Fresnel (4 sigma), 
         if (R == 1)
           CHECK(reflected == n);  // total internal reflection
         else
-          CHECK(std::abs(reflected - mean) <= 4 * sigma + 1);
+          // z: Šidák over at most 36 comparisons (3 η × 2 sides × 6 angles); σ the binomial one; +1 for the integer count
+          CHECK(std::abs(reflected - mean) <= reference_physics::sidak_z(1e-3, 36) * sigma + 1);
       }
   }
 }
@@ -233,6 +244,7 @@ TEST_CASE("radiance transport scales refraction by 1/eta squared, importance tra
           auto r = bxdf.sample(wo, 0, {0.5f, 0.5f}, mode);
           REQUIRE(r);
           CHECK(r->flags == BxDFFlags::specular_reflection);
+          // 1e-5 relative: f·|cos|/pdf in float, ~10 roundings (6e-7) with room for the η'² scale
           CHECK(weight(*r) == Approx(1).epsilon(1e-5));
         }
         if (R == 1) continue;  // total internal reflection: no refraction
@@ -253,9 +265,11 @@ TEST_CASE("radiance transport scales refraction by 1/eta squared, importance tra
         auto back = bxdf.sample(t_rad->wi, 0.9999f, {0.5f, 0.5f}, TransportMode::radiance);
         REQUIRE(back);
         REQUIRE(back->is_transmission());
+        // 2e-6: two float refractions (~8 roundings of unit components each: 2 × 5e-7) and the η' rescaling between them
         CHECK(back->wi.x == Approx(wo.x).margin(2e-6));
         CHECK(back->wi.y == Approx(wo.y).margin(2e-6));
         CHECK(back->wi.z == Approx(wo.z).margin(2e-6));
+        // 1e-6: 1 − R by float Fresnel (~15 roundings ≤ 9e-7) at cosines that differ by a few ulps
         CHECK(back->pdf == Approx(t_rad->pdf).margin(1e-6));
         CHECK(weight(*back) * weight(*t_rad) == Approx(1).epsilon(1e-5));
         // Expected weight over uc: R + T (importance, energy conserved) and
@@ -268,6 +282,7 @@ TEST_CASE("radiance transport scales refraction by 1/eta squared, importance tra
             if (auto bs = bxdf.sample(wo, (k + Float(0.5)) / m, {0.5f, 0.5f}, mode)) s += weight(*bs);
           return s / m;
         };
+        // 2e-3: midpoint rule on a step: the reflected fraction is off by ≤ 1/(2m) = 5e-4, times the step |1 − 1/η'²| ≤ 2.2: ≤ 1.1e-3
         CHECK(mean_weight(TransportMode::importance) == Approx(1).margin(2e-3));
         CHECK(mean_weight(TransportMode::radiance) == Approx(R + T / (etap * etap)).margin(2e-3));
       }
@@ -301,6 +316,7 @@ TEST_CASE("a dispersive material terminates secondary wavelengths, a non-dispers
     REQUIRE_FALSE(w.secondary_terminated());
     auto b = Traits4::make(*m, si, w);
     CHECK(w.secondary_terminated());
+    // bare Approx: Catch's 100·FLT_EPSILON relative; dividing by 4 is exact in float
     CHECK(w.pdf()[0] == Approx(pdf0 / 4));
     for (int k = 1; k < 4; ++k) CHECK(w.pdf()[k] == 0);
     CHECK(b.eta() == m->ior(w[0]));
@@ -336,6 +352,7 @@ TEST_CASE("a dispersive material terminates secondary wavelengths, a non-dispers
   // RGB: eta at the d line (N-BK7 n_d = 1.51680; an Abbe law's eta_d).
   RGBWavelengths rgb;
   using TraitsRGB = bxdf_traits<DielectricBxDF<RGB>>;
+  // 1e-5: SCHOTT quotes n_d to 5 decimals (±5e-6), plus float Sellmeier (~10 roundings of 1.5: 1e-6); 2e-6 ≈ 16 ulps of 1.5 for the Abbe law
   CHECK(TraitsRGB::make(bk7, si, rgb).eta() == Approx(1.51680).margin(1e-5));
   CHECK(TraitsRGB::make(abbe, si, rgb).eta() == Approx(1.5).margin(2e-6));
   CHECK(TraitsRGB::make(constant, si, rgb).eta() == 1.5f);

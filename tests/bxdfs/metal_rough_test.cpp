@@ -405,6 +405,7 @@ TEST_CASE("metal-rough white furnace is at most 1, and exactly 1 where the model
             for (int c = 0; c < 3; ++c) {
               INFO(v.name << " roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta
                           << " channel " << c << ": " << a[size_t(c)].mean << " +- " << a[size_t(c)].sigma);
+              // +1e-6: float rounding of weights ≤ 1 (~10 roundings: 6e-7)
               CHECK(a[size_t(c)].mean <= 1 + z_max * a[size_t(c)].sigma + 1e-6);
               ++checked;
               double z = a[size_t(c)].sigma > 0 ? (a[size_t(c)].mean - 1 - 1e-6) / a[size_t(c)].sigma : -1e9;
@@ -430,6 +431,7 @@ TEST_CASE("metal-rough white furnace is at most 1, and exactly 1 where the model
           for (int c = 0; c < 4; ++c) {
             INFO("spectral roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta
                                        << " wavelength " << c << ": " << a[size_t(c)].mean);
+            // +1e-6: float rounding of weights ≤ 1, as above
             CHECK(a[size_t(c)].mean <= 1 + z_max * a[size_t(c)].sigma + 1e-6);
           }
         }
@@ -447,7 +449,7 @@ TEST_CASE("metal-rough white furnace is at most 1, and exactly 1 where the model
     for (const auto& mat : {lambert, mirror, slab}) {
       auto a = albedo_all(make_bxdf<RGB>(mat), direction_at(theta), 2000, rng);
       INFO("lossless: metallic " << mat.metallic << " transmission " << mat.transmission << " theta " << theta);
-      for (int c = 0; c < 3; ++c) CHECK(a[size_t(c)].mean == Approx(1).margin(1e-5));
+      for (int c = 0; c < 3; ++c) CHECK(a[size_t(c)].mean == Approx(1).margin(1e-5));  // 1e-5: each weight is 1 up to ~10 float roundings (6e-7)
     }
   }
 }
@@ -484,6 +486,7 @@ TEST_CASE("metal-rough eval and pdf match an independent transcription of the gl
       if (std::abs(wo.z) < 1e-3f || std::abs(wi.z) < 1e-3f) continue;
       RGB f = b.eval(wo, wi, TransportMode::radiance);
       {
+        // 2e-4 relative = tests/reference's bsdf_tol at the smallest α = 0.05²: float_tol + 8u/α = 1.95e-4; 1e-6 absolute where f vanishes
         INFO("pdf: roughness " << mat.roughness << " metallic " << mat.metallic << " transmission "
                                << mat.transmission << " ior " << mat.ior << " anisotropy " << mat.anisotropy
                                << " wo.z " << wo.z << " wi.z " << wi.z);
@@ -508,6 +511,7 @@ TEST_CASE("metal-rough eval and pdf match an independent transcription of the gl
   MetalRoughMaterial lambert = material(0.5f, 0, 0, RGB(0.2f, 0.5f, 0.8f));
   lambert.specular = 0;
   RGB f = make_bxdf<RGB>(lambert).eval(direction_at(30), direction_at(60, 2.5), TransportMode::radiance);
+  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, float ρ/π
   CHECK(f.r == Approx(0.2 / pi_d));
   CHECK(f.b == Approx(0.8 / pi_d));
   MetalRoughMaterial full = material(0, 0, 0.5f, RGB(0.5f));
@@ -531,6 +535,7 @@ TEST_CASE("metal-rough reflection and thin transmission are reciprocal, sample a
           INFO("roughness " << r << " metallic " << m << " transmission " << t << " x " << x.x << " " << x.y << " "
                             << x.z << " y " << y.x << " " << y.y << " " << y.z);
           S4 fxy = b.eval(x, y, TransportMode::radiance), fyx = b.eval(y, x, TransportMode::radiance);
+          // 1e-4 relative: both orders share the float half vector (x + y = y + x); they differ by a few u in wo·h vs wi·h times Fresnel's conditioning, ≪ 1e-4
           for (int c = 0; c < 4; ++c) CHECK(fxy[c] == Approx(fyx[c]).epsilon(1e-4).margin(1e-30));
           CHECK(b.eval(x, y, TransportMode::importance) == fxy);
           auto bs = b.sample(x, rng.next_float(), {rng.next_float(), rng.next_float()}, TransportMode::radiance);
@@ -578,7 +583,7 @@ TEST_CASE("metal-rough takes the exact specular path at roughness 0 and 1e-4, no
       CHECK(refl->wi == Vector3f(-wo.x, -wo.y, wo.z));
       CHECK(refl->pdf == p.reflection);
       RGB F = b.specular_fresnel(wo.z);
-      for (int c = 0; c < 3; ++c) CHECK(refl->f[c] * wo.z == Approx(F[c]).epsilon(1e-6));
+      for (int c = 0; c < 3; ++c) CHECK(refl->f[c] * wo.z == Approx(F[c]).epsilon(1e-6));  // 1e-6: f = F/cos, times cos: 2 float roundings (1.2e-7)
       auto tr = b.sample(wo, 1 - p.transmission / 2, {0.3f, 0.6f}, TransportMode::radiance);
       REQUIRE(tr);
       CHECK(tr->flags == BxDFFlags::specular_transmission);
@@ -587,7 +592,7 @@ TEST_CASE("metal-rough takes the exact specular path at roughness 0 and 1e-4, no
       auto di = b.sample(wo, p.reflection + p.diffuse / 2, {0.3f, 0.6f}, TransportMode::radiance);
       REQUIRE(di);
       CHECK(di->flags == BxDFFlags::diffuse_reflection);
-      CHECK(di->pdf == Approx(p.diffuse * di->wi.z / pi_d));
+      CHECK(di->pdf == Approx(p.diffuse * di->wi.z / pi_d));  // bare Approx: 100·FLT_EPSILON relative
       // eval and pdf: the diffuse lobe only; 0 at the delta directions' opposite side.
       CHECK(b.eval(wo, -wo, TransportMode::radiance).is_black());
       CHECK(b.pdf(wo, -wo, TransportMode::radiance) == 0);
@@ -631,6 +636,7 @@ TEST_CASE("metal-rough is finite at grazing angles, roughness 0, 1e-4, the thres
             auto a = albedo_all(b, wo, 2000, rng);
             for (int c = 0; c < 3; ++c) {
               CHECK(std::isfinite(a[size_t(c)].mean));
+              // +1e-5: float rounding of weights ≤ 1 at these degenerate inputs (a few u, with room for 1/cos near grazing)
               CHECK(a[size_t(c)].mean <= 1 + z * a[size_t(c)].sigma + 1e-5);
             }
           }
@@ -673,6 +679,7 @@ TEST_CASE("metal-rough material: clamps with one warning per material, throws wh
     CHECK(b.distribution().effectively_smooth());
     CHECK(b.base_color() == RGB(1, 0.5f, 0));
     CHECK(b.dielectric_f0().r == 0);
+    // bare Approx: 100·FLT_EPSILON relative, ((η − 1)/(η + 1))² in float
     CHECK(b.dielectric_f0().g == Approx(0.08));
     CHECK(b.dielectric_f0().b == Approx(0.04));
   }
@@ -700,6 +707,7 @@ TEST_CASE("metal-rough material: clamps with one warning per material, throws wh
   }
   CHECK_FALSE(T::needs_spectral(ok));
   CHECK(T::name == "metal_rough");
+  // bare Approx: 100·FLT_EPSILON relative, ((η − 1)/(η + 1))² in float
   CHECK(MetalRoughMaterial::f0_from_ior(1.5f) == Approx(0.04));
   CHECK(MetalRoughMaterial::f0_from_ior(0) == 1);
   // glTF's defaults: white, metallic 1, roughness 1.
@@ -799,6 +807,8 @@ TEST_CASE("metal-rough volume: white furnace, lossless when smooth, TIR from ins
             auto a = albedo(b, wo, TransportMode::importance, 0, 20000, rng);
             INFO("roughness " << r << " metallic " << m << " transmission " << t << " theta " << theta << " side "
                               << side << ": " << a.mean << " +- " << a.sigma);
+            // 1e-6: float rounding of the weights (~10 roundings: 6e-7); 1e-5 where σ is 0 because
+            // every weight is 1 up to rounding
             CHECK(a.mean <= 1 + z * a.sigma + 1e-6);
             // Smooth glass with a white base and no metal: R + T = 1 exactly
             // (including total internal reflection from inside).
@@ -814,6 +824,7 @@ TEST_CASE("metal-rough volume: white furnace, lossless when smooth, TIR from ins
     REQUIRE(bs);
     if (!bs->is_transmission()) continue;
     ++transmissions;
+    // bare Approx (100·FLT_EPSILON relative); 1e-4: float sin = sqrt(1 − z²) has relative error ≈ u(cos/sin)² ≤ 4u at 45° and 28°, ≪ 1e-4
     CHECK(bs->eta == Approx(1.5f));
     Float sin_i = std::sqrt(1 - wo.z * wo.z), sin_t = std::sqrt(1 - bs->wi.z * bs->wi.z);
     CHECK(sin_i == Approx(1.5 * sin_t).epsilon(1e-4));
@@ -966,6 +977,7 @@ TEST_CASE("metal-rough multiple scattering: sample matches pdf, eval is reciproc
           for (int k = 0; k < 50; ++k) {
             Vector3f wo = direction_at(theta), wi = sample_cosine_hemisphere({rng.next_float(), rng.next_float()});
             S a = bxdf.eval(wo, wi, TransportMode::radiance), b = bxdf.eval(wi, wo, TransportMode::radiance);
+            // 1e-4 relative: as in the reciprocity test above, shared float half vector, Fresnel's conditioning times a few u
             for (int c = 0; c < S::size; ++c) CHECK(a[c] == Approx(b[c]).epsilon(1e-4).margin(1e-30));
           }
         }

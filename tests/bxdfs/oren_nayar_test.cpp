@@ -63,12 +63,16 @@ TEST_CASE("Oren-Nayar furnace: albedo at most rho, exactly rho at sigma 0 and at
     for (double theta : test_angles) {
       Albedo a = albedo(b, direction_at(theta), TransportMode::radiance, 0, 100000, rng);
       INFO("sigma " << sigma << " theta " << theta << ": " << a.mean << " +- " << a.sigma);
+      // z = 4: two-sided 6.3e-5 per estimate, ≤ 1e-3 family-wise over these 16 (Šidák); +1e-6 for float rounding
       CHECK(a.mean <= 1 + 4 * a.sigma + 1e-6);
       if (sigma == 0) {
+        // 1e-5, σ < 1e-6: each weight is ρ up to ~10 float roundings
         CHECK(a.mean == Approx(1).margin(1e-5));  // Lambert: every sample weighs rho
         CHECK(a.sigma < 1e-6);
       }
-      if (theta == 89.9) CHECK(std::abs(a.mean - 1) <= 4 * a.sigma + 0.01);  // rho at grazing
+      // rho at grazing: at 89.9 deg Fujii's albedo is 1 - 4.4e-4 at worst (sigma 1, by the quadrature of
+      // reference_physics::OrenNayarFujii), so 5e-4 rather than a bare 0.01; z = 4 as above.
+      if (theta == 89.9) CHECK(std::abs(a.mean - 1) <= 4 * a.sigma + 5e-4);
       out << " " << theta << " deg: " << a.mean << " (+-" << a.sigma << ")";
     }
     // At normal incidence s = 0 for every wi: the albedo is A pi exactly,
@@ -82,6 +86,7 @@ TEST_CASE("Oren-Nayar furnace: albedo at most rho, exactly rho at sigma 0 and at
   OrenNayarBxDF<RGB> coloured(RGB(0.9f, 0.5f, 0.1f), 1.f);
   for (int c = 0; c < 3; ++c) {
     Albedo a = albedo(coloured, direction_at(45), TransportMode::radiance, c, 50000, rng);
+    // z = 4 as above, 3 estimates
     CHECK(a.mean <= coloured.reflectance()[c] + 4 * a.sigma);
   }
   WARN(out.str());
@@ -95,6 +100,7 @@ TEST_CASE("Oren-Nayar is reciprocal, symmetric across the surface and finite at 
     Vector3f y = sample_uniform_sphere({rng.next_float(), rng.next_float()});
     RGB fxy = b.eval(x, y, TransportMode::radiance), fyx = b.eval(y, x, TransportMode::importance);
     INFO("x " << x.x << " " << x.y << " " << x.z << " y " << y.x << " " << y.y << " " << y.z);
+    // 1e-5 relative: the swapped arguments run the same float operations in another order (a few u)
     CHECK(fxy.g == Approx(fyx.g).epsilon(1e-5));
     CHECK(b.eval(-x, -y, TransportMode::radiance).g == Approx(fxy.g).epsilon(1e-5));
     if (!same_hemisphere(x, y)) CHECK(fxy.is_black());
@@ -130,6 +136,7 @@ TEST_CASE("Oren-Nayar traits validate the material and make it in RGB and spectr
   CHECK(rgb.reflectance() == RGB(0.2f, 0.4f, 0.6f));
   auto w = SampledWavelengths<4>::sample(0.3f);
   auto spectral = bxdf_traits<OrenNayarBxDF<S4>>::make(OrenNayarMaterial{RGB(0.5f), 1, "grey"}, si, w);
+  // 1e-5: the grey uplift returns 0.5 within 1e-6 relative (tests/spectra/uplift_test.cpp), plus float
   for (int i = 0; i < 4; ++i) CHECK(spectral.reflectance()[i] == Approx(0.5f).margin(1e-5));
   // A scene validates it when built.
   Scene<RGB, ONSet<RGB>> scene;
@@ -170,6 +177,7 @@ TEST_CASE("a scene with the extended set renders Oren-Nayar: Lambert at sigma 0,
   for (int y = 0; y < lambert.height(); ++y)
     for (int x = 0; x < lambert.width(); ++x)
       max_diff = std::max(max_diff, double(std::abs(lambert.pixel(x, y).g - on0.pixel(x, y).g)));
+  // 1e-4: the same paths with f equal up to a few u (≲ 1e-6 relative) on pixel values ≲ 1
   CHECK(max_diff < 1e-4);
   // Centre pixel and a pixel near the limb (the sphere's radius is 1 in a
   // 2.2-wide view: pixel 3 from the edge is at ~0.83 of the radius).
@@ -178,16 +186,23 @@ TEST_CASE("a scene with the extended set renders Oren-Nayar: Lambert at sigma 0,
   double ratio_rough = on2.pixel(limb, c).g / on2.pixel(c, c).g;
   INFO("limb / centre: Lambert " << ratio_lambert << ", Oren-Nayar sigma 1 " << ratio_rough);
   CHECK(ratio_lambert > 0);
+  // With wi = wo Fujii's f is rho A (1 + sigma sin^2 / cos): 2.2x Lambert's relative to the centre at
+  // 0.83 of the radius; 1.2 only asks for the direction of the effect.
   CHECK(ratio_rough > 1.2 * ratio_lambert);
   // Spectral mode agrees with RGB on a grey material (a flat spectrum): one
   // bounce, deterministic light; only the wavelength sampling differs.
-  double sum_rgb = 0, sum_spectral = 0;
+  double sum_rgb = 0, sum_spectral = 0, var = 0;
   for (int y = 0; y < on2.height(); ++y)
     for (int x = 0; x < on2.width(); ++x) {
       sum_rgb += on2.pixel(x, y).g;
       sum_spectral += on2s.pixel(x, y).g;
+      var += double(on2.variance(x, y).g) + double(on2s.variance(x, y).g);
     }
-  CHECK(sum_spectral == Approx(sum_rgb).epsilon(0.02));
+  // The sums' difference within z sigma (pixels independent; the renders share their camera samples,
+  // which only lowers the difference's variance) plus 1e-3 for the 1 nm tables against the renderer's
+  // interpolated ones and the uplift (tests/integrators/volume_test.cpp); it was a bare 2%.
+  INFO("RGB " << sum_rgb << " spectral " << sum_spectral << " sigma " << std::sqrt(var));
+  CHECK(std::abs(sum_spectral - sum_rgb) <= reference_physics::sidak_z(1e-3, 1) * std::sqrt(var) + 1e-3 * sum_rgb);
 }
 
 }  // namespace oren_nayar_test

@@ -31,10 +31,12 @@ TEST_CASE("thin lens: a point at the focus distance images into one raster posit
     Point2f u{rng.next_float(), rng.next_float()};
     auto c = cam.connect(p, u);
     REQUIRE(c);
+    // 2e-3 px: ~10 float roundings at depth 4 (ulp 4.8e-7) are ~5e-6 world, 1.7e-4 px at 0.029 world units per pixel
     CHECK(std::abs(c->p_raster.x - ref->p_raster.x) < 2e-3f);
     CHECK(std::abs(c->p_raster.y - ref->p_raster.y) < 2e-3f);
     // The camera ray through that raster position and lens sample passes through p.
     Ray r = cam.generate_ray(CameraSample{c->p_raster, u});
+    // 1e-4: ~10 float roundings of coordinates ≤ 4 (ulp 4.8e-7) give ~5e-6; 1e-4 · depth below likewise
     CHECK(ray_point_distance(r, p) < 1e-4);
   }
 }
@@ -66,6 +68,8 @@ TEST_CASE("thin lens: a point off focus images into the circle of confusion", "[
       CHECK(ray_point_distance(ray, p) < 1e-4 * depth);
     }
     INFO("depth " << depth << ": circle of confusion " << coc << " px, largest radius " << max_r);
+    // 1e-3 px and 1e-4 relative: float rounding of raster positions ≤ 200 (ulp 1.5e-5);
+    // 0.99: P(max of 20000 uniform radii < 0.99 coc) = 0.9801^20000 ≈ e^-400.
     CHECK(max_r <= coc * 1.0001 + 1e-3);
     CHECK(max_r >= coc * 0.99);
     // Uniform over the disk: E[r^2] = coc^2 / 2, within z standard errors (var r^2 = coc^4 / 12).
@@ -77,11 +81,12 @@ TEST_CASE("orthographic camera: parallel rays, and connect inverts generate_ray"
   const int w = 64, h = 32;
   OrthographicCamera cam(look_at_camera_to_world({1, 2, 5}, {1, 2, 0}, {0, 1, 0}), 2.f, w, h);
   Ray a = cam.generate_ray(CameraSample{{0.5f, 0.5f}, {}}), b = cam.generate_ray(CameraSample{{60.f, 20.f}, {}});
+  // 1e-6: a few ulps of unit components; bare Approx: Catch's 100·FLT_EPSILON relative
   CHECK(length(a.d - b.d) < 1e-6f);
   CHECK(a.d.z == Approx(-1));
   // The window is 2 units tall and 4 wide.
   Ray left = cam.generate_ray(CameraSample{{0, 16}, {}}), right = cam.generate_ray(CameraSample{{64, 16}, {}});
-  CHECK(distance(left.o, right.o) == Approx(4).epsilon(1e-5));
+  CHECK(distance(left.o, right.o) == Approx(4).epsilon(1e-5));  // 1e-5: a few float roundings of the window's width 4
   PCG32 rng(0, 9);
   for (int i = 0; i < 1000; ++i) {
     Point2f pf{rng.next_float() * w, rng.next_float() * h};
@@ -89,6 +94,7 @@ TEST_CASE("orthographic camera: parallel rays, and connect inverts generate_ray"
     Point3f p = r.o + r.d * (1 + 5 * rng.next_float());
     auto c = cam.connect(p, {});
     REQUIRE(c);
+    // 1e-3 px: raster ≤ 64 (ulp 7.6e-6) after ~10 roundings, plus world errors ~ulp(6) = 4.8e-7 at 16 px per unit: ≲ 1e-4 px
     CHECK(c->p_raster.x == Approx(pf.x).margin(1e-3));
     CHECK(c->p_raster.y == Approx(pf.y).margin(1e-3));
   }

@@ -11,10 +11,12 @@ TEST_CASE("perspective camera looks at its target with the right field of view",
   Float fov = radians(50);
   PerspectiveCamera cam(look_at_camera_to_world({1, 2, 3}, {1, 2, -7}, {0, 1, 0}), fov, w, h);
   Ray c = cam.generate_ray({{w / 2.f, h / 2.f}, {0.5f, 0.5f}, 0});
+  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, a few float roundings of the look-at frame
   CHECK(c.o.x == Approx(1));
   CHECK(c.d.z == Approx(-1));
   // The top edge's centre is fov/2 above the axis; the right edge's centre is to +x (no mirroring).
   Ray top = cam.generate_ray({{w / 2.f, 0}, {0.5f, 0.5f}, 0});
+  // 1e-5 relative: float ray direction (~10 roundings: 6e-7) through acos at sin 25° = 0.42: ≲ 1.5e-6
   CHECK(std::acos(double(-top.d.z)) == Approx(fov / 2).epsilon(1e-5));
   CHECK(top.d.y > 0);
   Ray right = cam.generate_ray({{Float(w), h / 2.f}, {0.5f, 0.5f}, 0});
@@ -27,6 +29,7 @@ TEST_CASE("a left-handed look-at gives pbrt's camera, the mirror image of the ri
   // camera-to-world (right = up x dir = +x): camera +x is world +x.
   Transform left = look_at_camera_to_world({0, 0, 0}, {0, 0, 1}, {0, 1, 0}, Handedness::left);
   Vector3f x = left(Vector3f{1, 0, 0}), y = left(Vector3f{0, 1, 0}), z = left(Vector3f{0, 0, 1});
+  // bare Approx (100·FLT_EPSILON relative): float cross products and normalisation of unit vectors
   CHECK(x.x == Approx(1));
   CHECK(y.y == Approx(1));
   CHECK(z.z == Approx(1));
@@ -40,6 +43,7 @@ TEST_CASE("a left-handed look-at gives pbrt's camera, the mirror image of the ri
   Transform r2 = look_at_camera_to_world(eye, target, {0, 1, 0});
   Vector3f lx = l2(Vector3f{1, 0, 0}), rx = r2(Vector3f{1, 0, 0});
   for (int i = 0; i < 3; ++i) {
+    // 1e-6: a few float ulps of unit components (2^-24 ≈ 6e-8 each); bare Approx on the eye: 100·FLT_EPSILON relative
     CHECK(lx[i] == Approx(-rx[i]).margin(1e-6));
     CHECK(l2(Vector3f{0, 0, 1})[i] == Approx(r2(Vector3f{0, 0, 1})[i]).margin(1e-6));
     CHECK(l2(Vector3f{0, 1, 0})[i] == Approx(r2(Vector3f{0, 1, 0})[i]).margin(1e-6));
@@ -59,6 +63,7 @@ TEST_CASE("the field of view spans the axis it is given for", "[cameras]") {
     PerspectiveCamera horizontal(t, fov, FovAxis::horizontal, w, h);
     PerspectiveCamera vertical(t, fov, FovAxis::vertical, w, h);
     PerspectiveCamera shorter(t, fov, FovAxis::shorter, w, h);
+    // 1e-5 relative: as above, float direction through acos away from 0 (≲ 1.5e-6)
     CHECK(angle(horizontal, Float(w), h / 2.f) == Approx(fov / 2).epsilon(1e-5));
     CHECK(angle(vertical, w / 2.f, 0) == Approx(fov / 2).epsilon(1e-5));
     // pbrt-v4: the shorter extent spans the field of view.
@@ -79,9 +84,10 @@ TEST_CASE("thin lens rays through one film point meet at the focus distance", "[
     Float t = -focus / r.d.z;  // plane z = -focus
     Point3f p = r.at(t);
     if (i == 0) first = p;
+    // 1e-4: ~10 float roundings at the focus distance 5 (ulp 4.8e-7) give ~5e-6; the lens radius 0.2 adds a few ulps more
     CHECK(p.x == Approx(first.x).margin(1e-4));
     CHECK(p.y == Approx(first.y).margin(1e-4));
-    CHECK(std::hypot(r.o.x, r.o.y) <= 0.2f + 1e-6f);
+    CHECK(std::hypot(r.o.x, r.o.y) <= 0.2f + 1e-6f);  // 1e-6: the lens radius plus one rounding
   }
 }
 

@@ -97,6 +97,7 @@ TEST_CASE("filter weights average to the normalised integral and carry the sign 
     const AnyFilter& f = nf.filter;
     // The filter is normalised: its integral over the square is 1.
     const double integral = integrate_1d(f, [](double) { return 1.0; }, false);
+    // 1e-5: the filter integral by Gauss–Legendre quadrature (integrate_1d) on a piecewise-polynomial or Gaussian kernel, far below
     CHECK(integral == Approx(1).epsilon(1e-5));
     // E[w] = integral^2 = 1, and E[w x^2] = the integral of f(x, y) x^2,
     // whose sign pattern would be lost if the negative lobes were sampled as
@@ -120,6 +121,7 @@ TEST_CASE("filter weights average to the normalised integral and carry the sign 
     double mm = sm / n, sigma_m = std::sqrt(std::max(0.0, sm2 / n - mm * mm) / (n - 1));
     INFO(nf.label << ": E[w] " << mw << " sigma " << sigma_w << ", E[w x^2] " << mm << " expected " << moment
                   << " sigma " << sigma_m << ", negative weights " << negative);
+    // +1e-5: the float weights' rounding (a few u of values ≤ ~2, summed in double)
     CHECK(std::abs(mw - integral * integral) <= z * sigma_w + 1e-5);
     CHECK(std::abs(mm - moment) <= z * sigma_m + 1e-5 * std::abs(moment));
     WARN(nf.label << ": E[w] - 1 = " << mw - 1 << " (" << (sigma_w > 0 ? (mw - 1) / sigma_w : 0.0)
@@ -138,6 +140,7 @@ TEST_CASE("the triangle filter honours its support radius", "[film][filter]") {
     CHECK(f.eval({r, 0}) == 0);
     CHECK(f.eval({0, -r}) == 0);
     CHECK(f.eval({next_float_up(r), 0}) == 0);
+    // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, a few float roundings
     CHECK(f.eval({0, 0}) == Approx(1 / (r * r)));
     // The extreme sample values land on or inside the support.
     for (Float u : {0.f, 1e-7f, next_float_down(0.5f), 0.5f, next_float_down(1.f)}) {
@@ -171,6 +174,8 @@ TEST_CASE("the triangle filter honours its support radius", "[film][filter]") {
 
 TEST_CASE("the Mitchell filter is the Mitchell-Netravali cubic", "[film][filter]") {
   MitchellFilter f;  // radius 2, B = C = 1/3: k(t) on [-2, 2] with t = x
+  // bare Approx (100·FLT_EPSILON relative): the cubic's float Horner evaluation; 1e-4 relative one ulp past 1, where the slope is -1/3;
+  // 1e-6 at the zero crossing 8/7, whose float argument is off by ≤ 6e-8 (slope ~ 0.3)
   CHECK(f.eval_1d(0) == Approx(8.0 / 9));  // (6 - 2 B) / 6
   CHECK(f.eval_1d(1) == Approx(1.0 / 18));  // B / 6, from both pieces
   CHECK(f.eval_1d(next_float_up(1.f)) == Approx(1.0 / 18).epsilon(1e-4));
@@ -223,6 +228,7 @@ TEST_CASE("every filter keeps a constant image constant through render", "[film]
     for (int y = 0; y < 4; ++y)
       for (int x = 0; x < 6; ++x) {
         INFO(name << " pixel " << x << "," << y);
+        // 1e-5 relative: a uniform scene: each pixel is a weighted mean of equal float values, summed in double, rounded once
         CHECK(film.pixel(x, y).b == Approx(0.75f).epsilon(1e-5));
         CHECK(film.pixel(x, y).r == Approx(0.25f).epsilon(1e-5));
       }

@@ -340,7 +340,7 @@ void inside_trials(double s, double offset, PCG32& rng, InsideCounts* c) {
           double nearest = lo > 0 ? lo : (hi < 0 ? hi : 0);
           near2 += nearest * nearest;
           far2 += std::max(lo * lo, hi * hi);
-          box_slack += 1e-12 * (std::abs(double(si.p[i])) + r);
+          box_slack += 1e-12 * (std::abs(double(si.p[i])) + r);  // the double test's own rounding (~10 roundings of 2^-53 of |p| + r)
         }
         bool on_surface = std::sqrt(near2) <= r + box_slack && std::sqrt(far2) >= r - box_slack;
         double te = exact_exit(sphere, ray);

@@ -104,6 +104,7 @@ TEST_CASE("KHR_materials_unlit shows the base colour exactly and takes no light,
   CHECK(unlit.finite);
   for (size_t k = 0; k < 3; ++k) {
     INFO("channel " << k << ": " << unlit.mean[k] << " expected " << c[k]);
+    // 1e-5: each sample is the float base colour (within 3e-8 of c), summed in double by the film and rounded once
     CHECK(std::abs(unlit.mean[k] - c[k]) <= 1e-5);
     CHECK(unlit.sigma[k] <= 1e-6);  // every sample is the base colour
   }
@@ -133,6 +134,7 @@ TEST_CASE("KHR_materials_unlit: the base colour texture multiplies the factor, n
   scene.scene.build();
   // The texture is red everywhere, whatever the box's texture coordinates.
   Window w = top_face<RGB>(scene, 4);
+  // 1e-5 and 1e-6: as above, a float colour averaged in double and rounded once
   CHECK(std::abs(w.mean[0] - 0.5) <= 1e-5);
   CHECK(std::abs(w.mean[1]) <= 1e-6);
   CHECK(std::abs(w.mean[2]) <= 1e-6);
@@ -140,7 +142,8 @@ TEST_CASE("KHR_materials_unlit: the base colour texture multiplies the factor, n
 
 // Spectral: the base colour is emitted as an RGB illuminant spectrum, whose
 // film RGB reproduces the colour up to the uplift's round trip (at most
-// 5e-4 per channel, tests/spectra/uplift_test.cpp) and the hero-wavelength
+// 5e-4 per channel: tests/spectra/uplift_test.cpp bounds it by 5.9e-4 of the
+// largest component, 0.8 here) and the hero-wavelength
 // noise (4 sigma, one check per channel: a family of 3, Sidak-corrected
 // 4 sigma is 4.2, so 4.5 sigma is used).
 TEST_CASE("KHR_materials_unlit shows the base colour, spectral", "[gltf][unlit][spectral]") {
@@ -176,6 +179,7 @@ TEST_CASE("UnlitTest: the required KHR_materials_unlit loads, every surface emit
     for (int x = 0; x < 32; ++x) {
       RGB p = film.pixel(x, y);
       CHECK(p.g <= 0.2177f);
+      // 1e-4: the two colours are float sRGB decodes (ulp ≤ 1.2e-7) summed over 4 spp; an edge pixel mixes them by far more
       if (std::abs(p.r - 1) < 1e-4f && std::abs(p.g - 0.217637f) < 1e-4f && p.b < 1e-6f) ++orange;
       if (std::abs(p.b - 1) < 1e-4f && std::abs(p.g - 0.217637f) < 1e-4f && p.r < 1e-6f) ++blue;
     }
@@ -459,6 +463,7 @@ TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error w
     CHECK(mentions(g.warnings, "KHR_texture_basisu"));
     g.scene.build();
     Window w = top_face<RGB>(g, 1);
+    // 1e-5: as in the unlit checks above, a float colour averaged in double and rounded once
     CHECK(std::abs(w.mean[0] - 0.5) <= 1e-5);
     CHECK(w.mean[1] == 0);
   }

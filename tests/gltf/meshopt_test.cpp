@@ -53,6 +53,7 @@ TEST_CASE("EXT_meshopt_compression: a box encoded by meshoptimizer loads as the 
       for (size_t v = 0; v < m.normals.size(); ++v) {
         Vector3f n(m.normals[v].x, m.normals[v].y, m.normals[v].z);
         n = normalize(n);
+        // 1e-6: the normals decode to float; a few ulps of unit components
         for (int a = 0; a < 3; ++a) CHECK(std::abs(n[a] - box.nrm[3 * v + size_t(a)]) <= 1e-6f);
       }
     }

@@ -195,14 +195,17 @@ TEST_CASE("KHR_mesh_quantization: every allowed component type decodes as the sp
       double got_len = std::sqrt(double(m.normals[v].x) * m.normals[v].x + double(m.normals[v].y) * m.normals[v].y +
                                  double(m.normals[v].z) * m.normals[v].z);
       REQUIRE(got_len > 0);
+      // 1e-6: float normalisation of the decoded code, a few ulps of unit components (2^-24 each)
       for (size_t a = 0; a < 3; ++a) CHECK(std::abs(m.normals[v][int(a)] / got_len - n[a] / len) <= 1e-6);
       for (size_t a = 0; a < 3; ++a) {
+        // 1e-6: one float rounding of a decoded code in [-1, 1]
         double want = decode(tan[v][a], c.tangent);
         CHECK(std::abs(m.tangents[v][a] - want) <= 1e-6);
       }
       CHECK(m.tangents[v][3] == (decode(tan[v][3], c.tangent) < 0 ? -1.0f : 1.0f));
     }
     // The node's scale and offset place the decoded triangle.
+    // 1e-5 relative: the node's float scale and offset and the bounds' transform, a few roundings each
     for (int a = 0; a < 3; ++a) {
       CHECK(std::abs(loaded.bounds.min[a] - expected_bounds.min[a]) <= 1e-5f * std::max(1.0f, std::abs(expected_bounds.min[a])));
       CHECK(std::abs(loaded.bounds.max[a] - expected_bounds.max[a]) <= 1e-5f * std::max(1.0f, std::abs(expected_bounds.max[a])));
@@ -243,6 +246,7 @@ TEST_CASE("KHR_mesh_quantization: the quantized AnimatedMorphCube gives the plai
   for (const Tri& t : b) area_b += area(t);
   // A 2 x 2 x 2 cube (a control that both scales were applied): area 24,
   // and the twin's within a step of it on every edge (relative 2 x 3.65e-4 / 2).
+  // 1e-4: the float areas of 12 triangles summed to 24 (ulp(24) = 1.9e-6, ~20 roundings)
   CHECK(std::abs(area_b - 24) <= 1e-4);
   CHECK(std::abs(area_a - area_b) <= 24 * 2 * 3.65e-4);
 }

@@ -74,7 +74,7 @@ void check_absorbing_cube(const Integrator& integrator, double bias, int compari
         INFO("pixel " << x << "," << y << " channel " << c << ": " << v << " expected " << expected << " sigma "
                       << sigma);
         // Russian roulette on the attenuated throughput makes the estimate noisy.
-        CHECK(std::abs(v - expected) <= zq * sigma + bias);
+        CHECK(std::abs(v - expected) <= zq * sigma + bias);  // zq: Šidák over the comparisons; bias: see the header
       }
 }
 }  // namespace

@@ -80,12 +80,14 @@ TEST_CASE("light BVH pmfs sum to one over all lights", "[lights][light_bvh]") {
   lights.emplace_back(DistantLight<RGB>({0, -1, 0}, RGB(1)));
   BVHLightSampler s = make_sampler(lights);
   REQUIRE(s.size() == lights.size());
+  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, a float ratio of counts
   CHECK(s.infinite_probability() == Approx(2.0 / 3));
   for (int k = 0; k < 300; ++k) {
     LightSampleContext ctx = random_context(rng, k % 3 != 0);
     double sum = 0;
     for (uint32_t i = 0; i < lights.size(); ++i) sum += s.pmf(ctx, i);
     INFO("point " << k << " at " << ctx.p.x << ", " << ctx.p.y << ", " << ctx.p.z);
+    // 1e-4: each pmf is a product of ≲ 10 float branch probabilities (~30 roundings: 2e-6 relative); the sum keeps that, 50x inside
     CHECK(sum == Approx(1).epsilon(1e-4));
   }
 }
@@ -108,6 +110,7 @@ TEST_CASE("light BVH pmfs sum to the probability that sampling succeeds", "[ligh
     int ok = 0;
     for (int j = 0; j < m; ++j) ok += s.sample(ctx, (Float(j) + Float(0.5)) / Float(m)) ? 1 : 0;
     INFO("point " << k);
+    // 1e-5: float pmfs, as above (≲ 2e-6); stratified u finds the success probability to within (leaves + 1) / m (see above)
     CHECK(sum <= 1 + 1e-5);
     CHECK(std::abs(sum - double(ok) / m) <= double(lights.size() + 1) / m);
     worst = std::max(worst, 1 - sum);
@@ -138,6 +141,7 @@ TEST_CASE("light BVH sampling frequencies follow its pmf", "[lights][light_bvh]"
       }
       observed[sl->index] += 1;
       // The pmf of the sample, recomputed from its bit trail, is the returned one.
+      // 1e-6 relative: the same branch products recomputed, a few float roundings (≲ 4e-7)
       if (!(std::abs(s.pmf(ctx, sl->index) - sl->pmf) <= 1e-6f * sl->pmf)) ++mismatched;
     }
     CHECK(mismatched == 0);
@@ -207,6 +211,7 @@ TEST_CASE("light bounds of each light kind", "[lights][light_bvh]") {
   TriangleAreaLight<RGB> tri({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, AreaEmission(RGB(2), 1, false), 0, 0);
   auto b = light_bounds<RGB>(tri);
   REQUIRE(b);
+  // 1e-5 relative, 1e-6 absolute: a few float roundings of the triangle's area and normal; bare Approx: 100·FLT_EPSILON relative
   CHECK(b->phi == Approx(1).epsilon(1e-5));
   CHECK(b->w.z == Approx(1));
   CHECK(b->cos_theta_o == 1);
@@ -221,6 +226,7 @@ TEST_CASE("light bounds of each light kind", "[lights][light_bvh]") {
   // A point light of intensity 3: phi 3, importance I / d^2 facing it.
   auto bp = light_bounds<RGB>(PointLight<RGB>({0, 2, 0}, RGB(3)));
   REQUIRE(bp);
+  // 1e-5 and 1e-4 relative: float intensity and I / d² (a few roundings); the spot's and sphere's φ add a float cone or π r²
   CHECK(bp->phi == Approx(3).epsilon(1e-5));
   CHECK(bp->importance({0, 0, 0}, Normal3f(0, 1, 0)) == Approx(3.0 / 4).epsilon(1e-4));
   // A spot pointing down with a 30 degree outer cone: dark outside it.
@@ -271,6 +277,7 @@ TEST_CASE("light BVH edge cases", "[lights][light_bvh]") {
   for (Float u : {0.f, 0.4f, 0.99999f}) {
     auto sl = only_inf.sample(ctx, u);
     REQUIRE(sl);
+    // bare Approx: 100·FLT_EPSILON relative, one float division
     CHECK(sl->pmf == Approx(1.0 / 3));
   }
   // One light, facing down, above the point: always it.
@@ -289,6 +296,7 @@ TEST_CASE("light BVH edge cases", "[lights][light_bvh]") {
   BVHLightSampler ss = make_sampler(same);
   double sum = 0;
   for (uint32_t i = 0; i < same.size(); ++i) sum += ss.pmf(ctx, i);
+  // 1e-4: float pmf products as above, here over a 9-level tree of 300 lights
   CHECK(sum == Approx(1).epsilon(1e-4));
 }
 
@@ -310,6 +318,7 @@ TEST_CASE("scene light selection dispatch", "[lights][light_bvh]") {
         LightSampleContext ctx = context({uniform(rng, -5, 5), 0, uniform(rng, -5, 5)}, Normal3f(0, 1, 0));
         double sum = 0;
         for (uint32_t i = 0; i < scene.lights().size(); ++i) sum += scene.light_pmf(ctx, i);
+        // 1e-5 / 1e-4: float pmf products as above; 1e-6 relative for the same pmf recomputed
         // The BVH may find no light for a point (see above), the others always do.
         if (want == LightSelection::bvh) CHECK(sum <= 1 + 1e-5);
         else CHECK(sum == Approx(1).epsilon(1e-4));

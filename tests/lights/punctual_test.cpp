@@ -79,6 +79,7 @@ TEMPLATE_TEST_CASE("point light radiance is I over d squared", "[lights][punctua
     CHECK(ls->pdf == 1);
     CHECK_FALSE(ls->infinite);
     CHECK(ls->p_light == Point3f{1, 2, 3});
+    // 1e-6: a few float ulps of unit components; 1e-5 relative: I / d² with d² rounded in float at coordinates ≤ 3 (a few ulps)
     CHECK(length(ls->wi - normalize(Point3f{1, 2, 3} - at)) < 1e-6f);
     CHECK(max_rel_diff(ls->L, S(I_s / Float(d2))) < 1e-5);
     CHECK(light.pdf_li(ctx, ls->wi, {}) == 0);
@@ -86,7 +87,7 @@ TEMPLATE_TEST_CASE("point light radiance is I over d squared", "[lights][punctua
   LightSampleContext on;
   on.p = {1, 2, 3};
   CHECK_FALSE(light.sample_li(on, {0.5f, 0.5f}, lambda));
-  CHECK(max_rel_diff(light.power(lambda), S(I_s * Float(4 * kPi))) < 1e-6);
+  CHECK(max_rel_diff(light.power(lambda), S(I_s * Float(4 * kPi))) < 1e-6);  // 1e-6: 4π I in float, 2 roundings
 }
 
 TEST_CASE("spot falloff follows the glTF formula at several angles", "[lights][punctual][spot]") {
@@ -109,12 +110,13 @@ TEST_CASE("spot falloff follows the glTF formula at several angles", "[lights][p
       INFO("inner " << c.inner / deg << " outer " << c.outer / deg << " angle " << a);
       // Near the edges the falloff is steep (up to 1000 per unit of cos with
       // equal angles), so float rounding of cos theta gets an absolute margin.
+      // 1e-4 relative; 2e-4 absolute = slope ≤ 1000 per unit cos × a few u (2.4e-7) of float cos θ × I/d² = 0.48: 1.2e-4
       double got = ls ? double(ls->L.g) : 0.0;
       CHECK(got == Approx(expected).epsilon(1e-4).margin(2e-4));
       if (a > c.outer / deg + 0.01) CHECK_FALSE(ls);
       if (ls) {
         CHECK(ls->pdf == 1);
-        CHECK(length(ls->wi + wl) < 1e-5f);
+        CHECK(length(ls->wi + wl) < 1e-5f);  // 1e-5: wl's float sin/cos and p at coordinates ≤ 5 (ulp 4.8e-7) over 2.5: ≲ 1e-6
       }
     }
     // Power: I times the falloff's integral over the sphere (midpoint rule in cos).
@@ -123,6 +125,7 @@ TEST_CASE("spot falloff follows the glTF formula at several angles", "[lights][p
     for (int i = 0; i < m; ++i) integral += gltf_falloff(-1 + 2 * (i + 0.5) / m, c.inner, c.outer) * 2.0 / m;
     integral *= 2 * kPi;
     INFO("inner " << c.inner / deg << " outer " << c.outer / deg);
+    // 1e-4: the midpoint rule's error with h = 1e-5 at the falloff's kinks (≲ h · its steps, 1e-5) plus float power
     CHECK(light.power(RGBWavelengths{}).g == Approx(3 * integral).epsilon(1e-4));
   }
 }
@@ -139,6 +142,7 @@ TEMPLATE_TEST_CASE("distant light arrives from one direction with its irradiance
   REQUIRE(ls);
   CHECK(ls->pdf == 1);
   CHECK(ls->infinite);
+  // 1e-6: a few float ulps of unit components and of E·4π
   CHECK(length(ls->wi + normalize(dir)) < 1e-6f);
   S E = spectrum_traits<S>::illuminant(RGB(4, 2, 1), lambda);
   CHECK(max_rel_diff(ls->L, E) < 1e-6);
@@ -175,6 +179,7 @@ TEMPLATE_TEST_CASE("sun sample_li agrees with Le and pdf_li and delivers its irr
     CHECK(sun.kind() == LightKind::infinite);
     CHECK_FALSE(is_delta(sun.kind()));
     double one_minus_cos = 1 - std::cos(diameter / 2);
+    // 1e-4 relative: float half-angle (2u in 1 − cos ∝ θ²) and 1 − cos in float near 0.27° in a stable form
     CHECK(sun.cone_pdf() == Approx(1 / (2 * kPi * one_minus_cos)).epsilon(1e-4));
     LightSampleContext ctx;
     PCG32 rng(21, 22);
@@ -198,6 +203,7 @@ TEMPLATE_TEST_CASE("sun sample_li agrees with Le and pdf_li and delivers its irr
     double mean = s / n, sigma = std::sqrt(std::max(0.0, s2 / n - mean * mean) / (n - 1));
     double E = spectrum_traits<S>::illuminant(RGB(400, 350, 300), lambda)[0];
     INFO("diameter " << diameter / deg << " E " << E << " estimate " << mean << " sigma " << sigma);
+    // 1e-4·E: the cone pdf's allowance above (each weight divides by it)
     CHECK(std::abs(mean - E) <= z * sigma + 1e-4 * E);
     // Directions outside the cone see nothing: one at right angles to the
     // axis, one 1.01 times the half-angle off it.
@@ -215,7 +221,7 @@ TEMPLATE_TEST_CASE("sun sample_li agrees with Le and pdf_li and delivers its irr
     DistantLight<S> distant(dir, RGB(800, 700, 600), 0.5f);
     sun.set_scene_radius(3);
     distant.set_scene_radius(3);
-    CHECK(max_rel_diff(sun.power(lambda), distant.power(lambda)) < 1e-6);
+    CHECK(max_rel_diff(sun.power(lambda), distant.power(lambda)) < 1e-6);  // 1e-6: the same float E·π r² in both
   }
 }
 

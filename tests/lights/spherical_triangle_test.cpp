@@ -105,6 +105,7 @@ TEST_CASE("spherical triangle sampling is uniform over the solid angle", "[light
           sum_p += w2;
         }
       }
+    // 1e-6: the cells' solid angles, each a few roundings, summed and divided by ω
     REQUIRE(sum_p == Approx(1).epsilon(1e-6));
     PCG32 rng(7, 11);
     const int n = 200000;
@@ -113,6 +114,7 @@ TEST_CASE("spherical triangle sampling is uniform over the solid angle", "[light
     for (int k = 0; k < n; ++k) {
       auto s = sample_spherical_triangle(t.p0 - o, t.p1 - o, t.p2 - o, {rng.next_float(), rng.next_float()});
       REQUIRE(s);
+      // 1e-6 relative: the sampler's float solid angle against the double one (a few u); -1e-5: float directions' rounding on the plane
       CHECK(s->area == Approx(omega).epsilon(1e-6));
       auto bc = plane_barycentrics(t, o, s->w);
       if (bc[0] < -1e-5 || bc[1] < -1e-5 || bc[2] < -1e-5) ++outside;
@@ -132,6 +134,7 @@ TEST_CASE("spherical triangle sampling rejects degenerate triangles", "[lights][
   CHECK_FALSE(sample_spherical_triangle({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.5f, 0.5f}));
   CHECK(spherical_triangle_area({1, 0, 0}, {2, 0, 0}, {3, 0, 0}) == 0);
   // The octant: pi / 2 exactly.
+  // 1e-12: double arithmetic, ~10 roundings of 2^-53
   CHECK(spherical_triangle_area({1, 0, 0}, {0, 1, 0}, {0, 0, 1}) == Approx(1.5707963267948966).epsilon(1e-12));
 }
 
@@ -166,6 +169,7 @@ TEST_CASE("triangle light NEE: closed-form irradiance, pdf_li agrees, lower vari
         // pdf_li at the point the sample found gives the same density.
         SurfaceInteraction si;
         si.p = ls->p_light;
+        // 1e-3: the area path's d²/(|cos| A) in float has relative error ≈ u/|cos|, ≤ 1e-3 for |cos| ≥ 6e-5
         CHECK(light.pdf_li(ctx, ls->wi, si) == Approx(ls->pdf).epsilon(1e-3));
       }
       s += v;
@@ -187,6 +191,7 @@ TEST_CASE("triangle light NEE: closed-form irradiance, pdf_li agrees, lower vari
     INFO("at (" << at.x << ", " << at.y << ", " << at.z << "): solid angle " << omega << ", E = " << ref
                 << ", light sampler " << mean << " +- " << sigma << " (variance " << var << "), area sampling "
                 << amean << " +- " << asigma << " (variance " << avar << ")");
+    // z from Šidák (above); 1e-6·ref: the float pdf and L of each weight (a few u)
     CHECK(std::abs(mean - ref) <= z * sigma + 1e-6 * ref);
     CHECK(std::abs(amean - ref) <= z * asigma);
     if (spherical) CHECK(var < avar);

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (bitwise) return differing == 0 ? 0 : 1;
+    // 1e-5 relative: ranks sum the same float samples in double in another order; the PFM rounds to float (≤ 1 ulp)
     return worst <= 1e-5 ? 0 : 1;
   } catch (const prism::Error& e) {
     std::printf("%s\n", e.what());

@@ -98,11 +98,13 @@ TEST_CASE("refraction obeys Snell's law: n1 sin_i = n2 sin_t, in the plane of in
       REQUIRE(t.has_value() == !tir);
       if (tir) continue;
       double sin_t = std::hypot(double(t->wt.x), double(t->wt.y));
+      // 8u: float refraction rounds each component ~8 times (u = 2^-24), relative to sin ≤ 1 (times n2 for n2 sin_t)
       CHECK(std::abs(n1 * sin_i - n2 * sin_t) <= 8 * u * n2);
       CHECK(t->wt.z * w.z < 0);
       // The tangential parts are opposite (wi and wt both point away).
       CHECK(double(t->wt.x) * w.x + double(t->wt.y) * w.y <= 0);
       CHECK(std::abs(double(t->wt.x) * w.y - double(t->wt.y) * w.x) <= 8 * u);
+      // 1e-6 ≈ 16u: η' is the float η or one float division of it
       CHECK(t->etap == Approx(n2 / n1).epsilon(1e-6));
     }
 }
@@ -128,11 +130,13 @@ TEST_CASE("white rough conductor albedo equals its double quadrature, 1 - ln 2 a
       double want = ref::conductor_albedo(std::acos(double(wo.z)), alpha, 128, 16);
       double mean = albedo(b, wo, 40000, rng).first, sigma = ref::bounded_sigma(want, 40000);
       INFO("alpha " << alpha << " theta " << theta << ": " << mean << " +- " << sigma << " vs " << want);
+      // 5e-5: the quadrature's own error at 89.9° (< 5e-5 against twice its resolution; docs/testing.md)
       CHECK(std::abs(mean - want) <= z * sigma + 5e-5);
       worst = std::max(worst, std::abs(mean - want) / sigma);
     }
   // The closed form (docs/microfacets.md): at normal incidence and alpha = 1,
   // E = int_0^{1/2} (1 - 2 xi) / (1 - xi) d xi = 1 - ln 2.
+  // 1e-12: the quadrature's error at α = 1, θo = 0 (docs/testing.md), far above double rounding
   CHECK(ref::conductor_albedo(0, 1) == Approx(1 - std::log(2.0)).epsilon(1e-12));
   ConductorBxDF<RGB> b(TrowbridgeReitz(1, 1), RGB(0), RGB(1));
   double mean = albedo(b, Vector3f(0, 0, 1), 100000, rng).first;
@@ -153,6 +157,7 @@ TEST_CASE("Oren-Nayar equals Fujii's form pointwise and in albedo", "[reference]
       Vector3f wi = sample_uniform_sphere({rng.next_float(), rng.next_float()});
       double got = b.eval(wo, wi, TransportMode::radiance)[0], want = on.f({wo.x, wo.y, wo.z}, {wi.x, wi.y, wi.z});
       INFO("sigma " << sigma << " wo.z " << wo.z << " wi.z " << wi.z << ": " << got << " vs " << want);
+      // float_tol relative (gamma(64)); 1e-12 absolute where f vanishes (double rounding of the reference)
       CHECK(std::abs(got - want) <= float_tol * want + 1e-12);
     }
   }
@@ -167,6 +172,7 @@ TEST_CASE("Oren-Nayar equals Fujii's form pointwise and in albedo", "[reference]
       auto [mean, sd] = albedo(b, wo, 40000, rng);
       double want = theta == 0 ? on.A() * ref::pi : on.albedo(std::acos(double(wo.z)));
       INFO("sigma " << sigma << " theta " << theta << ": " << mean << " +- " << sd << " vs " << want);
+      // +1e-6: the quadrature's error (Gauss–Legendre on kink-free pieces of a smooth integrand); z from Šidák above
       CHECK(std::abs(mean - want) <= z * sd + 1e-6);
     }
 }
@@ -181,6 +187,7 @@ TEST_CASE("the power heuristic, Beer-Lambert and Lambert's cosine density are th
     for (double t : {0.0, 0.1, 1.0, 4.0}) {
       INFO("sigma " << sigma << " t " << t);
       double want = ref::beer_lambert(sigma, t);
+      // float_tol relative; 1e-30 absolute only so that exp underflow to 0 compares as equal
       CHECK(std::abs(transmittance(RGB(Float(sigma)), Float(t))[1] - want) <= float_tol * want + 1e-30);
     }
   for (double c : {0.0, 0.2, 0.7, 1.0}) CHECK(std::abs(pdf_cosine_hemisphere(Float(c)) - c / ref::pi) <= float_tol);
@@ -219,6 +226,7 @@ TEST_CASE("N-BK7 matches SCHOTT's catalogue, the CIE 1931 functions the CIE tabl
   }
   // CIE 1931 at a few wavelengths (float storage: relative 2^-24).
   for (const auto& s : ref::cie1931_samples) {
+    // 1e-6 ≈ 17u: float storage (2^-24) plus the lookup's ~3 roundings; the 1 gives an absolute 1e-6 where x is 0
     INFO(s.lambda_nm << " nm");
     CHECK(std::abs(cie_x(Float(s.lambda_nm)) - s.x) <= 1e-6 * (1 + s.x));
     CHECK(std::abs(cie_y(Float(s.lambda_nm)) - s.y) <= 1e-6 * (1 + s.y));

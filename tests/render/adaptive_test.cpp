@@ -221,6 +221,8 @@ TEST_CASE("the adaptive image matches a high-spp reference region by region", "[
         bias_sum += a - r, ref_sum += r, var_sum += var;
         INFO("region " << rx << "," << ry << " channel " << c << ": adaptive " << a << " reference " << r
                        << " z " << z);
+        // z = 4 over 48 comparisons: family-wise 3e-3 for an unbiased estimate (Šidák's 1e-3 would be 4.26); kept stricter,
+        // since early stopping biases the adaptive mean slightly
         CHECK(z < 4);
       }
   WARN("adaptive (target 0.1, " << double(st.samples) / (w * h) << " mean spp) against 2048 spp: largest |z| "

@@ -73,10 +73,12 @@ TEST_CASE("AOVs of a diffuse plane: albedo, normal and depth, zeros where nothin
       if (on == 1) {
         ++hit;
         RGB al = aovs.albedo(x, y);
+        // 1e-5: the AOV averages the same float albedo over the pixel's samples in double and rounds once
         CHECK(al.r == Approx(rho.r).margin(1e-5));
         CHECK(al.g == Approx(rho.g).margin(1e-5));
         CHECK(al.b == Approx(rho.b).margin(1e-5));
         Vector3f n = aovs.normal(x, y);
+        // 1e-6: a few ulps of a unit component; 1e-5: depth 2 through a float ray (ulp(2) = 2.4e-7, ~10 roundings, averaged)
         CHECK(n.z == Approx(-1).margin(1e-6));  // towards the camera
         CHECK(aovs.depth(x, y) == Approx(2).margin(1e-5));
       } else if (on == -1) {
@@ -122,6 +124,7 @@ TEST_CASE("spectral AOV albedo of a grey plane is its reflectance within the noi
   // pixels - 1 degrees of freedom, one comparison at 10^-3.
   const double t = reference_physics::sidak_t(1e-3, 1, double(g.size() - 1));
   INFO("mean " << mean << " sigma " << sigma << " t " << t << " pixels " << g.size());
+  // +1e-6 for the float rounding of each pixel (a few u)
   CHECK(std::abs(mean - 0.5) < t * sigma + 1e-6);
 }
 
@@ -159,12 +162,15 @@ TEST_CASE("a mirror passes on the albedo of what it reflects, times its reflecta
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       RGB a = aovs.albedo(x, y);
+      // 1e-4 relative: the conductor's f·cos/pdf in float, evaluated by the integrator at slightly different directions;
+      // 1e-5 for the wall's float normal averaged over the pixel
       CHECK(a.r == Approx(0.6f * F.r).epsilon(1e-4));
       CHECK(aovs.normal(x, y).x == Approx(1).margin(1e-5));  // the wall's normal, facing the mirror
       // Depth is the mirror's: it lies at z = 2 - x (linear over the pixel).
       CameraSample c;
       c.p_film = {Float(x) + 0.5f, Float(y) + 0.5f};
       // The mean of samples within the pixel: within half a pixel (1/32) of the centre's depth.
+      // +1e-4: float depth (ulp(2) = 2.4e-7) averaged over the pixel's samples
       CHECK(std::abs(aovs.depth(x, y) - (2 - cam.generate_ray(c).o.x)) <= 1.0f / 32 + 1e-4f);
     }
 }
@@ -194,6 +200,7 @@ TEST_CASE("an EXR with AOVs holds the named layers and they read back", "[render
   REQUIRE(rh == h);
   // The last column sees the plane (the camera's +x is the world's -x).
   size_t last = size_t(w - 1) * 4;
+  // 1e-6: a float value stored as float in EXR (exact) after the AOV's float average
   CHECK(rgba[last] == Approx(0.25f).margin(1e-6));
   CHECK(rgba[last + 1] == Approx(0.5f).margin(1e-6));
   CHECK(rgba[last + 2] == Approx(0.75f).margin(1e-6));

@@ -85,6 +85,7 @@ Result render_and_compare(Shutter shutter, SamplerKind kind, int spp) {
       double got = film.pixel(x, y).g;
       if (c > 0.01 && c < 0.99) ++r.partial;
       ++r.checked;
+      // +1e-5: float rounding of the samples (values ≤ 1, a few u each), averaged in double
       if (!(std::abs(got - expect) <= kZ * sigma + 1e-5)) {
         ++r.failures;
         UNSCOPED_INFO("pixel " << x << "," << y << ": " << got << " expected " << expect << " sigma " << sigma);

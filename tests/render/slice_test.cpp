@@ -80,6 +80,7 @@ TEST_CASE("sample ranges merged equal the whole render", "[render][slice]") {
     Film merged(W, H);
     merged.merge(p.film);
     merged.merge(q.film);
+    // 1e-5 relative: the same samples summed in double in another order, then rounded to float (≤ 1 ulp apart)
     CHECK(max_relative_difference(merged, whole.film) <= 1e-5);
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) REQUIRE(merged.sample_count(x, y) == 7);
@@ -224,6 +225,7 @@ TEST_CASE("AOVs of sample ranges merge into the whole render's", "[render][slice
       worst = std::max(worst, double(std::abs(merged.depth(x, y) - whole_aov.depth(x, y))) /
                                   std::max(1.0, double(whole_aov.depth(x, y))));
     }
+  // 1e-5: as above, the AOVs' double sums in another order, rounded to float
   CHECK(worst <= 1e-5);
 }
 

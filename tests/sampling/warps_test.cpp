@@ -74,6 +74,7 @@ TEST_CASE("chi2 helper matches known chi-squared quantiles", "[sampling][chi2]")
   CHECK(prism_test::chi2_p_value(0.0, 5) == 1.0);
   // Šidák: m tests at level alpha_m reject nothing with probability (1 - alpha_m)^m.
   double a = prism_test::sidak_alpha(1e-3, 10);
+  // 1e-12: double pow of a number within 1e-4 of 1 (10 roundings of 2^-53, far below)
   CHECK(std::pow(1 - a, 10) == Approx(1 - 1e-3).epsilon(1e-12));
   // Pooling: a sample in a zero-probability cell fails outright.
   Chi2Result r = prism_test::chi2_from_counts({10, 1, 9}, {10, 0, 10});
@@ -218,6 +219,7 @@ TEST_CASE("PiecewiseConstant1D sampling matches its pdf", "[sampling][distributi
   // integral() is the function's integral over [min, max].
   double exact = 0;
   for (Float v : f) exact += std::abs(double(v)) * 4.0 / n;
+  // 4u: the integral is summed in double and rounded to float once (≤ u), against a double sum
   CHECK(double(dist.integral()) == Approx(exact).epsilon(4 * kU));
 }
 

@@ -58,7 +58,7 @@ inline double incomplete_gamma_series(double a, double x) {
     ap += 1;
     del *= x / ap;
     sum += del;
-    if (std::abs(del) < std::abs(sum) * 1e-16) break;
+    if (std::abs(del) < std::abs(sum) * 1e-16) break;  // stop at double's unit roundoff (2^-53 ≈ 1.1e-16)
   }
   return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
 }
@@ -70,6 +70,7 @@ inline double incomplete_gamma_cf(double a, double x) {
   for (int i = 1; i < 100000; ++i) {
     double an = -i * (i - a);
     b += 2;
+    // tiny: Lentz's guard against a zero divisor (Numerical Recipes, 6.2); 1e-16: double's unit roundoff
     d = an * d + b;
     if (std::abs(d) < tiny) d = tiny;
     c = b + an / c;

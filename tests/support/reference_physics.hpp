@@ -63,7 +63,7 @@ struct GaussLegendre {
         dp = N * (z * p0 - p1) / (z * z - 1);
         double dz = p0 / dp;
         z -= dz;
-        if (std::abs(dz) < 1e-16) break;
+        if (std::abs(dz) < 1e-16) break;  // Newton's step below double's resolution of |z| ≤ 1
       }
       x[size_t(i)] = z;
       w[size_t(i)] = 2 / ((1 - z * z) * dp * dp);
@@ -463,7 +463,7 @@ inline double incomplete_beta(double x, double a, double b) {
   if (x >= 1) return 1;
   if (x > (a + 1) / (a + b + 2)) return 1 - incomplete_beta(1 - x, b, a);
   auto fraction = [&]() {
-    const double tiny = 1e-300;
+    const double tiny = 1e-300;  // Lentz's guard against a zero divisor (Numerical Recipes, 6.4)
     double c = 1, d = 1 - (a + b) * x / (a + 1);
     if (std::abs(d) < tiny) d = tiny;
     d = 1 / d;

@@ -52,6 +52,7 @@ Float ramp_lookup(const ImageTexture& tex, bool along_v, Float c) {
 void check_normal(const Normal3f& n, const Vector3f& expected) {
   INFO("n = (" << n.x << ", " << n.y << ", " << n.z << "), expected (" << expected.x << ", " << expected.y << ", "
                << expected.z << ")");
+  // 1e-6: a few float ulps of a unit vector's components (ulp ≤ 6e-8) after the frame product and normalisation
   CHECK(n.x == Approx(expected.x).margin(1e-6));
   CHECK(n.y == Approx(expected.y).margin(1e-6));
   CHECK(n.z == Approx(expected.z).margin(1e-6));
@@ -62,6 +63,7 @@ void check_unit_finite(const Normal3f& n) {
   REQUIRE(std::isfinite(n.x));
   REQUIRE(std::isfinite(n.y));
   REQUIRE(std::isfinite(n.z));
+  // 1e-6: normalize() in float leaves |n| within a few ulps (2^-24 ≈ 6e-8 each) of 1
   CHECK(length(n) == Approx(1).margin(1e-6));
 }
 
@@ -79,6 +81,7 @@ TEST_CASE("texture image stores and normalises u8 u16 and f32 values", "[texture
   CHECK(a.format() == PixelFormat::u8);
   CHECK(a.bytes() == 4);
   CHECK(a.channel(0, 0, 0) == 0.f);
+  // 1e-7: one float rounding of code / 255 (half an ulp at 0.2–0.5 is ≤ 3e-8)
   CHECK(a.channel(0, 0, 1) == Approx(0.2).margin(1e-7));
   CHECK(a.channel(1, 0, 0) == 1.f);
   CHECK(a.channel(1, 0, 1) == Approx(128.0 / 255.0).margin(1e-7));
@@ -87,6 +90,7 @@ TEST_CASE("texture image stores and normalises u8 u16 and f32 values", "[texture
   CHECK(b.format() == PixelFormat::u16);
   CHECK(b.bytes() == 4);
   CHECK(b.channel(0, 0, 0) == 1.f);
+  // 1e-7: one float rounding of code / 65535
   CHECK(b.channel(0, 1, 0) == Approx(0.2).margin(1e-7));
 
   TextureImage c = TextureImage::from_f32(1, 1, 3, {-1.5f, 2.f, 0.25f});
@@ -152,6 +156,7 @@ TEST_CASE("u16 images shrink to u8 only when every value is a multiple of 257", 
     CHECK_FALSE(img.shrink_to_smallest());
     CHECK(img.format() == PixelFormat::u16);
     CHECK(img.bytes() == 8);
+    // 1e-7: one float rounding of code / 65535
     CHECK(img.channel(1, 0, 1) == Approx(1000.0 / 65535.0).margin(1e-7));
     TextureImage one_off = TextureImage::from_u16(1, 1, 1, {65534});
     CHECK_FALSE(one_off.shrink_to_smallest());
@@ -190,13 +195,16 @@ TEST_CASE("bilinear lookup at texel centres and between texels", "[textures][sam
   for (int y = 0; y < 2; ++y)
     for (int x = 0; x < 3; ++x) {
       INFO("texel centre " << x << ", " << y);
+      // 1e-5: bilinear blend of values ≤ 40 in float: ~4 roundings of ulp(40) = 3.8e-6
       CHECK(tex.evaluate({(x + 0.5f) / 3, (y + 0.5f) / 2}).rgb.r == Approx(expected[y][x]).margin(1e-5));
     }
   // u = 1/3 is the edge between texels 0 and 1 (s = 0.5); v = 0.25 the centre of row 0.
+  // 1e-5: as above, values ≤ 20 and float weights from u·w − 1/2 (error ~2^-24·w·u)
   CHECK(tex.evaluate({1.f / 3, 0.25f}).rgb.r == Approx(0.5).margin(1e-5));
   // v = 0.5: halfway between the rows: (0.5 + (10 + 20) / 2) / 2 = 7.75.
   CHECK(tex.evaluate({1.f / 3, 0.5f}).rgb.r == Approx(7.75).margin(1e-5));
   // u = 0.4, v = 0.6: s = 1.2 - 0.5 = 0.7, t = 1.2 - 0.5 = 0.7 between texels
+  // 1e-4: weights from float s, t (error ~1e-7) times texel steps ≤ 20, plus ~4 roundings of ulp(12) ≈ 9.5e-7: ≲ 1e-5
   // (0,0) (1,0) (0,1) (1,1): 0.09 * 0 + 0.21 * 1 + 0.21 * 10 + 0.49 * 20 = 12.11.
   CHECK(tex.evaluate({0.4f, 0.6f}).rgb.r == Approx(12.11).margin(1e-4));
   // u = 0.75, v = 0.25: s = 1.75, between texels 1 and 2 of row 0: 0.25 * 1 + 0.75 * 2.
@@ -247,6 +255,7 @@ TEST_CASE("wrap modes on both axes with nearest and bilinear lookup", "[textures
       for (int i = 0; i < 5; ++i) {
         INFO("coordinate " << coords[i]);
         CHECK(ramp_lookup(tn, along_v, coords[i]) == c.nearest[i]);
+        // 1e-5: bilinear blend of texels ≤ 4 in float; wrapped s carries ~ulp(4 c) ≈ 5e-7 times steps ≤ 3
         CHECK(ramp_lookup(tl, along_v, coords[i]) == Approx(c.linear[i]).margin(1e-5));
       }
       CHECK(ramp_lookup(tl, along_v, 0.f) == Approx(c.linear_border[0]).margin(1e-5));
@@ -293,6 +302,7 @@ TEST_CASE("non-finite and huge uv give defined texels", "[textures][sampling]") 
   }
   // Nearest repeat at 0 is texel 0; bilinear repeat at 0 blends texels 3 and 0.
   CHECK(make_texture(ramp(false), FilterMode::nearest).evaluate({nan, 0.5f}).rgb.r == 1);
+  // bare Approx: Catch's 100·FLT_EPSILON ≈ 1.2e-5 relative, float rounding of a two-texel blend
   CHECK(make_texture(ramp(false), FilterMode::linear).evaluate({nan, 0.5f}).rgb.r == Approx(2.5));
   // A non-finite transform result is handled the same way.
   ImageTexture t = make_texture(ramp(false), FilterMode::nearest);
@@ -316,6 +326,7 @@ TEST_CASE("channel counts 1 to 4 expand to rgba", "[textures][sampling]") {
   auto eval = [](std::vector<uint8_t> px, int nc) {
     return make_texture(TextureImage::from_u8(1, 1, nc, std::move(px)), FilterMode::linear).evaluate({0.5f, 0.5f});
   };
+  // bare Approx: Catch's 100·FLT_EPSILON relative; code · (1/255) differs from code/255 by ≤ 2 float roundings
   const float k = 1.f / 255.f;
   RGBA g = eval({51}, 1);
   CHECK(g.rgb.r == Approx(51 * k));
@@ -351,17 +362,20 @@ TEST_CASE("sRGB decoding matches the formula and spares alpha", "[textures][srgb
       INFO("code " << i << " got " << got << " expected " << expected);
       CHECK(got == float(expected));  // exact: the table is the formula rounded once
     }
+    // 1e-7: the table is the formula rounded once to float (half an ulp at 0.2 is 7.5e-9); 1e-9 for 10/255/12.92 ≈ 3e-3 (ulp 2.3e-10)
     // Spot values: 128 -> 0.2158605, 255 -> 1, 10 -> 10 / 255 / 12.92 (linear segment).
     CHECK(tex.evaluate({128.5f / 256, 0.5f}).rgb.r == Approx(0.2158605).margin(1e-7));
     CHECK(tex.evaluate({255.5f / 256, 0.5f}).rgb.r == 1);
     CHECK(tex.evaluate({10.5f / 256, 0.5f}).rgb.r == Approx(10.0 / 255 / 12.92).margin(1e-9));
     // The same image with linear encoding returns the stored values.
+    // 1e-7: one float rounding of 128/255
     tex.encoding = ColorEncoding::linear;
     CHECK(tex.evaluate({128.5f / 256, 0.5f}).rgb.r == Approx(128.0 / 255).margin(1e-7));
   }
   SECTION("u16 and f32 through the formula") {
     ImageTexture t16 = make_texture(TextureImage::from_u16(1, 1, 3, {32768, 65535, 1000}), FilterMode::linear);
     t16.encoding = ColorEncoding::srgb;
+    // 1e-6: float pow in the formula: ~ten roundings, 10·2^-24 ≈ 6e-7 relative; 1e-8 on the linear segment's 1.2e-3 (ulp 1.2e-10)
     RGBA r = t16.evaluate({0.5f, 0.5f});
     CHECK(r.rgb.r == Approx(srgb_formula(32768.0 / 65535)).margin(1e-6));
     CHECK(r.rgb.g == Approx(1).margin(1e-6));
@@ -376,6 +390,7 @@ TEST_CASE("sRGB decoding matches the formula and spares alpha", "[textures][srgb
   SECTION("alpha is not decoded") {
     ImageTexture ga = make_texture(TextureImage::from_u8(1, 1, 2, {128, 128}), FilterMode::nearest);
     ga.encoding = ColorEncoding::srgb;
+    // 1e-7: the 8-bit table rounds the formula once to float (half an ulp at 0.5 is 3e-8)
     RGBA r = ga.evaluate({0.5f, 0.5f});
     CHECK(r.rgb.r == Approx(srgb_formula(128.0 / 255)).margin(1e-7));
     CHECK(r.rgb.b == Approx(srgb_formula(128.0 / 255)).margin(1e-7));
@@ -392,6 +407,7 @@ TEST_CASE("sRGB decoding matches the formula and spares alpha", "[textures][srgb
     ImageTexture tex = make_texture(TextureImage::from_u8(2, 1, 1, {0, 255}), FilterMode::linear,
                                     WrapMode::clamp_to_edge, WrapMode::clamp_to_edge);
     tex.encoding = ColorEncoding::srgb;
+    // 1e-6: float blend of the decoded values 0 and 1 (a few roundings of ulp(1) = 1.2e-7)
     CHECK(tex.evaluate({0.5f, 0.5f}).rgb.r == Approx(0.5).margin(1e-6));
     // u = 0.375: s = 0.75 - 0.5 = 0.25 -> 0.75 * 0 + 0.25 * 1.
     CHECK(tex.evaluate({0.375f, 0.5f}).rgb.r == Approx(0.25).margin(1e-6));
@@ -401,6 +417,7 @@ TEST_CASE("sRGB decoding matches the formula and spares alpha", "[textures][srgb
 TEST_CASE("average is the mean decoded texel", "[textures][sampling]") {
   ImageTexture tex = make_texture(TextureImage::from_u8(2, 1, 3, {0, 51, 255, 255, 51, 0}), FilterMode::linear);
   RGB a = tex.average();
+  // bare Approx: 100·FLT_EPSILON relative covers the float sum of 2 texels; margin 1e-7 is one rounding of the table
   CHECK(a.r == Approx(0.5));
   CHECK(a.g == Approx(0.2));
   CHECK(a.b == Approx(0.5));
@@ -428,6 +445,7 @@ TEST_CASE("KHR_texture_transform follows the worked example of the extension", "
   auto check = [&](Point2f in, Point2f out) {
     Point2f r = t.apply(in);
     INFO("(" << in.x << ", " << in.y << ") -> (" << r.x << ", " << r.y << ")");
+    // 1e-6: S, R, T in float: ~6 roundings of coordinates ≤ 1 plus float sin/cos of π/2 (cos error ≈ 4e-8)
     CHECK(r.x == Approx(out.x).margin(1e-6));
     CHECK(r.y == Approx(out.y).margin(1e-6));
   };
@@ -443,6 +461,7 @@ TEST_CASE("KHR_texture_transform rotation is counter-clockwise in uv space", "[t
   // with u right and v down, counter-clockwise turns +u towards -v (up).
   TextureTransform r90{{0, 0}, pi_over_2, {1, 1}};
   Point2f a = r90.apply({1, 0});
+  // 1e-6: float cos(π/2) ≈ -4.4e-8 and a few roundings of unit coordinates
   CHECK(a.x == Approx(0).margin(1e-6));
   CHECK(a.y == Approx(-1).margin(1e-6));
   Point2f b = r90.apply({0, 1});
@@ -456,6 +475,7 @@ TEST_CASE("KHR_texture_transform composes scale then rotation then offset", "[te
   // R S uv = (c 0.8 + s 1.5, -s 0.8 + c 1.5) = (1.2075495, 1.1965886); + offset.
   TextureTransform t{{0.1f, 0.2f}, 0.3f, {2, 3}};
   Point2f r = t.apply({0.4f, 0.5f});
+  // 1e-6: ~6 float roundings at magnitude 1.4 (ulp 1.2e-7) plus the printed reference's 1e-7 rounding
   CHECK(r.x == Approx(1.3075495).margin(1e-6));
   CHECK(r.y == Approx(1.3965886).margin(1e-6));
   CHECK(TextureTransform{}.is_identity());
@@ -549,6 +569,7 @@ TEST_CASE("degenerate tangents still give a unit finite normal", "[textures][nor
     // A tilted texel: unit, finite, 45 degrees from N in some direction.
     Normal3f r = apply_normal_map(RGB(1, 0.5f, 1), 1, T, {0, 1, 0}, N);
     check_unit_finite(r);
+    // 1e-5: the tilted normal is built, orthonormalised and normalised in float (~30 roundings ≈ 2e-6) around degenerate frames
     CHECK(dot(r, N) == Approx(inv_sqrt2).margin(1e-5));
   }
 }
@@ -561,6 +582,7 @@ TEST_CASE("mapped normals below the surface are bent back above it", "[textures]
   Normal3f r = apply_normal_map(RGB(1, 0.5f, 0), 1, T, B, N);
   check_unit_finite(r);
   CHECK(r.z > 0);
+  // 1e-6: a few float ulps of a unit vector's components
   CHECK(r.z == Approx(normal_map_min_cos).margin(1e-6));
   CHECK(r.x > 0.99f);
   CHECK(r.y == Approx(0).margin(1e-6));
@@ -572,6 +594,7 @@ TEST_CASE("mapped normals below the surface are bent back above it", "[textures]
   check_normal(apply_normal_map(RGB(0.5f, 0.5f, 0), 1, T, B, N), {0, 0, 1});
   // In the plane exactly (dot = 0) counts as below.
   Normal3f p = apply_normal_map(RGB(0.5f, 1, 0.5f), 1, T, B, N);
+  // 1e-6: a few float ulps of a unit vector's components
   CHECK(p.z == Approx(normal_map_min_cos).margin(1e-6));
   CHECK(p.y > 0.99f);
   // Non-finite texels or scales give N.
