@@ -876,22 +876,19 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
     p.base[i] = unit_or_zero(m.base_color[i]);
     note(channel_names[i], m.base_color[i], p.base[i]);
   }
-  p.metallic = unit_or_zero(m.metallic);
-  note("metallic", m.metallic, p.metallic);
-  p.roughness = unit_or_zero(m.roughness);
-  note("roughness", m.roughness, p.roughness);
-  p.specular = unit_or_zero(m.specular);
-  note("specular", m.specular, p.specular);
-  p.transmission = unit_or_zero(m.transmission);
-  note("transmission", m.transmission, p.transmission);
-  p.anisotropy = unit_or_zero(m.anisotropy);
-  note("anisotropy", m.anisotropy, p.anisotropy);
-  p.clearcoat = unit_or_zero(m.clearcoat);
-  note("clearcoat", m.clearcoat, p.clearcoat);
-  p.clearcoat_roughness = unit_or_zero(m.clearcoat_roughness);
-  note("clearcoat_roughness", m.clearcoat_roughness, p.clearcoat_roughness);
-  p.iridescence = unit_or_zero(m.iridescence);
-  note("iridescence", m.iridescence, p.iridescence);
+  // A parameter of [0, 1], clamped (NaN to 0) and noted.
+  auto unit = [&](const char* what, Float from, Float& to) {
+    to = unit_or_zero(from);
+    note(what, from, to);
+  };
+  unit("metallic", m.metallic, p.metallic);
+  unit("roughness", m.roughness, p.roughness);
+  unit("specular", m.specular, p.specular);
+  unit("transmission", m.transmission, p.transmission);
+  unit("anisotropy", m.anisotropy, p.anisotropy);
+  unit("clearcoat", m.clearcoat, p.clearcoat);
+  unit("clearcoat_roughness", m.clearcoat_roughness, p.clearcoat_roughness);
+  unit("iridescence", m.iridescence, p.iridescence);
   p.iridescence_thickness = std::max(film_thickness(m), Float(0));
   Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
   for (int i = 0; i < 3; ++i) {
