@@ -58,7 +58,9 @@ btdf_radiance_eta2 | include/prism/bxdfs/dielectric.hpp | if (mode == TransportM
 beer_lambert_half | include/prism/bxdfs/volume.hpp | std::exp(-sigma[i] * t); | std::exp(-sigma[i] * t / 2); | prism_test_reference prism_test_bxdfs
 schlick_complement | include/prism/bxdfs/metal_rough.hpp | (10 + c * (-5 + c)) | (10 + c * (-4 + c)) | prism_test_reference prism_test_bxdfs
 anisotropy_linear | include/prism/bxdfs/metal_rough.hpp | TrowbridgeReitz(alpha + (1 - alpha) * sqr(p.anisotropy), alpha) | TrowbridgeReitz(alpha + (1 - alpha) * p.anisotropy, alpha) | prism_test_bxdfs
-clearcoat_once | include/prism/bxdfs/metal_rough.hpp | return base_eval(wo, wi, mode) * (c.t_o * c.t_i) + S(c.f); | return base_eval(wo, wi, mode) * c.t_o + S(c.f); | prism_test_bxdfs
+clearcoat_once | include/prism/bxdfs/metal_rough.hpp | return inner_eval(wo, wi, mode) * (c.t_o * c.t_i) + S(c.f); | return inner_eval(wo, wi, mode) * c.t_o + S(c.f); | prism_test_bxdfs
+sheen_scale_min | include/prism/bxdfs/metal_rough.hpp | std::min(std::max(e_o, e_i), Float(1)) | std::min(std::min(e_o, e_i), Float(1)) | prism_test_bxdfs
+charlie_D_power | include/prism/bxdfs/sheen.hpp | std::pow(sin2, Float(0.5) * inv) | std::pow(sin2, inv) | prism_test_bxdfs
 thin_film_phase | include/prism/bxdfs/thin_film.hpp | (4 * 3.14159265358979323846 * n2 | (2 * 3.14159265358979323846 * n2 | prism_test_bxdfs
 skin_no_inverse_bind | include/prism/io/gltf/deform.hpp | out[j] = world(skin.joints[j]) * inv_bind; | out[j] = world(skin.joints[j]); | prism_test_gltf
 skin_weights_unnormalised | include/prism/io/gltf/deform.hpp | double w = std::max(sets[s].second[4 * i + c], 0.0) / sum; | double w = std::max(sets[s].second[4 * i + c], 0.0); | prism_test_gltf

@@ -450,6 +450,67 @@ TEST_CASE("KHR_materials_iridescence: factors load, bad values are errors, Iride
   CHECK(textured == 1);
 }
 
+// KHR_materials_sheen: colour, roughness and their textures reach
+// MetalRoughMaterial (defaults black and 0); bad values are errors naming
+// the member; SheenChair loads both velvets, each with its sheen.
+TEST_CASE("KHR_materials_sheen: factors and textures load, bad values are errors, SheenChair loads", "[gltf][sheen]") {
+  json m = unlit_material({0.5, 0.5, 0.5}, false);
+  m["extensions"]["KHR_materials_sheen"] = {{"sheenColorFactor", {0.8, 0.4, 0.2}}, {"sheenRoughnessFactor", 0.3}};
+  json g = box_gltf(1, m, {"KHR_materials_sheen"});
+  g["extensionsRequired"] = {"KHR_materials_sheen"};
+  auto loaded = load_gltf<RGB>(write_temp("sheen.gltf", g));
+  CHECK(loaded.warnings.empty());
+  const auto& mat = std::get<0>(loaded.scene.materials()[0]);
+  CHECK(mat.sheen_color == RGB(0.8f, 0.4f, 0.2f));
+  CHECK(mat.sheen_roughness == Approx(0.3));
+  {
+    json d = g;
+    d["materials"][0]["extensions"]["KHR_materials_sheen"] = json::object();
+    auto dl = load_gltf<RGB>(write_temp("sheen_default.gltf", d));
+    const auto& dm = std::get<0>(dl.scene.materials()[0]);
+    CHECK(dm.sheen_color == RGB(0));
+    CHECK(dm.sheen_roughness == 0);
+  }
+  const std::pair<const char*, json> bad[] = {{"sheenColorFactor", {0.5, 2.0, 0.5}},
+                                              {"sheenColorFactor", {0.5, 0.5}},
+                                              {"sheenColorFactor", {0.5, "red", 0.5}},
+                                              {"sheenRoughnessFactor", -0.5},
+                                              {"sheenRoughnessFactor", 1.5}};
+  for (const auto& [key, value] : bad) {
+    json b = g;
+    b["materials"][0]["extensions"]["KHR_materials_sheen"][key] = value;
+    std::string e;
+    try {
+      load_gltf<RGB>(write_temp("sheen_bad.gltf", b));
+    } catch (const Error& err) {
+      e = err.what();
+    }
+    INFO(value.dump() << ": " << e);
+    CHECK(e.find(std::string("materials[0].extensions.KHR_materials_sheen.") + key) != std::string::npos);
+  }
+  if (!have_scenes()) PRISM_TEST_SKIP("../shared/scenes is absent");
+  auto a = load_gltf<RGB>(scenes_dir + "SheenChair/glTF/SheenChair.gltf");
+  for (const auto& w : a.warnings) CHECK(w.find("sheen") == std::string::npos);
+  size_t sheened = 0;
+  for (const auto& v : a.scene.materials()) {
+    const auto& mm = std::get<0>(v);
+    if (mm.sheen_color != RGB(0)) {
+      ++sheened;
+      CHECK(mm.sheen_roughness == Approx(0.8));
+    }
+  }
+  CHECK(sheened >= 1);
+  auto p = load_gltf<RGB>(scenes_dir + "SheenChair/glTF/SheenChair.gltf", [] {
+    GltfOptions o;
+    o.variant = "Peacock Velvet";
+    return o;
+  }());
+  bool peacock = false;
+  for (const auto& v : p.scene.materials())
+    peacock |= std::get<0>(v).sheen_color == RGB(0.013f, 0.284f, 0.298f);
+  CHECK(peacock);
+}
+
 TEST_CASE("KHR_texture_basisu: the fallback image when optional, a clear error when required", "[gltf][basisu]") {
   std::string dir = std::string(PRISM_TEST_TMP_DIR) + "/gltf_extensions";
   std::filesystem::create_directories(dir);

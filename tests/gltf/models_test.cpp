@@ -72,7 +72,8 @@ const ModelCase models[] = {
 // Extensions prism supports: no shared model may warn about one of them.
 const char* supported_extensions[] = {"KHR_materials_clearcoat", "KHR_materials_iridescence", "KHR_materials_anisotropy",
                                       "KHR_materials_specular", "KHR_materials_unlit", "KHR_materials_variants",
-                                      "KHR_materials_ior", "KHR_materials_transmission", "KHR_materials_volume"};
+                                      "KHR_materials_ior", "KHR_materials_transmission", "KHR_materials_volume",
+                                      "KHR_materials_sheen"};
 
 // World bounds of instance i.
 Bounds3f instance_bounds(const SceneAccel& accel, size_t i) {

@@ -185,6 +185,51 @@ inline double thin_film_tmm(double cos_i, double n1, double n2, double d, double
 // eq. 24), the glTF 2.0 specification's Fresnel: F0 + (1 - F0)(1 - c)^5.
 inline double fresnel_schlick(double f0, double c) { return f0 + (1 - f0) * std::pow(1 - c, 5); }
 
+// ---- Charlie sheen (Estevez & Kulla 2017) -----------------------------------
+// "Production Friendly Microfacet Sheen BRDF" (Sony Imageworks, 2017), as
+// KHR_materials_sheen uses it. Distribution, section 2, with r = alpha:
+//   D(h) = (2 + 1/r) sin(theta_h)^(1/r) / (2 pi).
+inline double charlie_D(double alpha, const Dir& h) {
+  if (!(h.z > 0)) return 0;
+  return (2 + 1 / alpha) * std::pow(std::sin(theta_of(h)), 1 / alpha) / (2 * pi);
+}
+// Its shadowing, section 3: Lambda(theta) = exp(L(cos theta)) for theta >
+// 60 deg (cos < 1/2), exp(2 L(1/2) - L(1 - cos theta)) below, with the fit
+// L(x) = a / (1 + b x^c) + d x + e, the table's two rows (roughness 0 and
+// 1) blended by t = (1 - r)^2: p = t p(0) + (1 - t) p(1).
+inline double charlie_lambda(double alpha, double cos_theta) {
+  const double row0[5] = {25.3245, 3.32435, 0.16801, -1.27393, -4.85967};
+  const double row1[5] = {21.5473, 3.82987, 0.19823, -1.97760, -4.32054};
+  const double t = (1 - alpha) * (1 - alpha);
+  double q[5];
+  for (int i = 0; i < 5; ++i) q[i] = t * row0[i] + (1 - t) * row1[i];
+  auto L = [&](double x) { return q[0] / (1 + q[1] * std::pow(x, q[2])) + q[3] * x + q[4]; };
+  return cos_theta < 0.5 ? std::exp(L(cos_theta)) : std::exp(2 * L(0.5) - L(1 - cos_theta));
+}
+// The white lobe D G / (4 mu_o mu_i), G = 1 / (1 + Lambda(wo) + Lambda(wi)),
+// both directions above the surface.
+// prism takes the cosines in G and the denominator as at least mu_min =
+// 1e-3 (sheen.hpp: the fit's albedo diverges at the horizon); so does this.
+inline double charlie_sheen(double alpha, const Dir& wo, const Dir& wi, double mu_min = 1e-3) {
+  if (!(wo.z > 0 && wi.z > 0)) return 0;
+  Dir h = normalized({wo.x + wi.x, wo.y + wi.y, wo.z + wi.z});
+  const double mo = std::max(wo.z, mu_min), mi = std::max(wi.z, mu_min);
+  double G = 1 / (1 + charlie_lambda(alpha, mo) + charlie_lambda(alpha, mi));
+  return charlie_D(alpha, h) * G / (4 * mo * mi);
+}
+// Its directional albedo at cos theta_o = mu: Gauss-Legendre in theta_i
+// (panels x 16 points on [0, pi/2]) and phi_i (2 n_phi points on [0, 2 pi]).
+inline double charlie_albedo(double alpha, double mu, int panels = 8, int n_phi = 4) {
+  Dir wo{std::sqrt(std::max(0.0, 1 - mu * mu)), 0, mu};
+  return integrate(
+      [&](double th) {
+        double row = integrate(
+            [&](double ph) { return charlie_sheen(alpha, wo, from_angles(th, ph)); }, 0, 2 * pi, n_phi);
+        return row * std::cos(th) * std::sin(th);
+      },
+      0, pi / 2, panels);
+}
+
 // ---- Microfacet BSDFs (Walter et al. 2007) ----------------------------------
 // Reflection (Walter 2007, eq. 20 with the half vector of eq. 13):
 //   f_r = F(wo.h) G2 D(h) / (4 |wo.n| |wi.n|),  h = normalize(wo + wi),

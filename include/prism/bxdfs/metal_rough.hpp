@@ -80,6 +80,7 @@
 #include "prism/bxdfs/dielectric.hpp"
 #include "prism/bxdfs/microfacet.hpp"
 #include "prism/bxdfs/ms_compensation.hpp"
+#include "prism/bxdfs/sheen.hpp"
 #include "prism/bxdfs/thin_film.hpp"
 #include "prism/bxdfs/volume.hpp"
 #include "prism/error.hpp"
@@ -234,22 +235,45 @@ class MetalRoughBxDF {
   Float clearcoat() const { return m_coat; }
   const TrowbridgeReitz& clearcoat_distribution() const { return m_coat_distrib; }
 
+  // KHR_materials_sheen (sheen.hpp): the Charlie lobe of this colour (per
+  // channel or wavelength, in [0, 1]) and roughness over the material, under
+  // the clear coat:
+  //   sheen_layer(wo, wi) = colour D V / max(1, E(mu_o), E(mu_i))
+  //                       + material(wo, wi) min(1 - c E1(mu_o), 1 - c E1(mu_i))
+  // with c the colour's largest channel, E the white lobe's albedo
+  // (SheenAlbedoTable) and E1 = min(E, 1). The extension's sheen is D V; the
+  // division, which leaves it unchanged wherever E <= 1, keeps the lobe from
+  // reflecting more than it receives at grazing angles for small roughness,
+  // where the fitted shadowing lets E reach 4. The sheen is sampled
+  // uniformly over wo's hemisphere with probability s / (s + 1 - c E1(mu_o)),
+  // s = mean(colour) E1(mu_o). A black colour leaves the material as it was.
+  void set_sheen(const S& colour, Float roughness) {
+    m_sheen_max = colour.max_component();
+    if (!(m_sheen_max > 0)) {
+      m_sheen_max = 0;
+      return;
+    }
+    m_sheen = colour;
+    m_sheen_r = std::clamp(roughness, sheen_min_roughness, Float(1));
+  }
+  Float sheen() const { return m_sheen_max; }
+
   S eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
-    if (!(m_coat > 0)) return base_eval(wo, wi, mode);
+    if (!(m_coat > 0)) return inner_eval(wo, wi, mode);
     if (wo.z == 0 || wi.z == 0) return S{};
     const Coat c = coat(wo, wi);
-    return base_eval(wo, wi, mode) * (c.t_o * c.t_i) + S(c.f);
+    return inner_eval(wo, wi, mode) * (c.t_o * c.t_i) + S(c.f);
   }
   Float pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
-    if (!(m_coat > 0)) return base_pdf(wo, wi, mode);
+    if (!(m_coat > 0)) return inner_pdf(wo, wi, mode);
     if (wo.z == 0 || wi.z == 0) return 0;
     const Coat c = coat(wo, wi);
-    return c.p * c.pdf + (1 - c.p) * base_pdf(wo, wi, mode);
+    return c.p * c.pdf + (1 - c.p) * inner_pdf(wo, wi, mode);
   }
   // With a coat, uc first picks the coat with probability c F(mu_o), then
   // (rescaled) the material's lobe.
   std::optional<BSDFSample<S>> sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
-    if (!(m_coat > 0)) return base_sample(wo, uc, u, mode);
+    if (!(m_coat > 0)) return inner_sample(wo, uc, u, mode);
     if (wo.z == 0) return std::nullopt;
     Vector3f lo = coat_local(wo);
     const bool flip = lo.z < 0;
@@ -272,7 +296,7 @@ class MetalRoughBxDF {
       if (!(pdf_wi > 0)) return std::nullopt;
       return BSDFSample<S>{eval(wo, wi, mode), wi, pdf_wi, BxDFFlags::glossy_reflection};
     }
-    auto bs = base_sample(wo, std::min((uc - p) / (1 - p), one_minus_epsilon), u, mode);
+    auto bs = inner_sample(wo, std::min((uc - p) / (1 - p), one_minus_epsilon), u, mode);
     if (!bs) return std::nullopt;
     if (bs->is_specular()) {
       Vector3f li = coat_local(bs->wi);
@@ -288,6 +312,7 @@ class MetalRoughBxDF {
 
   BxDFFlags flags() const {
     BxDFFlags f = base_flags();
+    if (m_sheen_max > 0) f = f | BxDFFlags::glossy_reflection;
     if (m_coat > 0)
       f = f | (m_coat_distrib.effectively_smooth() ? BxDFFlags::specular_reflection : BxDFFlags::glossy_reflection);
     return f;
@@ -322,6 +347,68 @@ class MetalRoughBxDF {
     c.f = m_coat * coat_fresnel(dot(lo, wm)) * d * m_coat_distrib.G(lo, li) / (4 * lo.z * li.z);
     c.pdf = m_coat_distrib.G1(lo) * d / (4 * lo.z);
     return c;
+  }
+
+  // The material under the coat: the sheen over the base (set_sheen).
+  struct Sheen {
+    Float e_o = 0, e_i = 0;  // the white lobe's albedo at mu_o and mu_i
+    Float p = 0;             // the probability of sampling the sheen at wo
+  };
+  Float sheen_albedo(Float mu) const { return SheenAlbedoTable::get().E(mu, m_sheen_r); }
+  Float sheen_probability(Float e_o) const {
+    const Float s = m_sheen.average() * std::min(e_o, Float(1));
+    return s / (s + (1 - m_sheen_max * std::min(e_o, Float(1))));
+  }
+  // What the sheen leaves to the base: min(1 - c E1(mu_o), 1 - c E1(mu_i)).
+  Float sheen_scale(Float e_o, Float e_i) const {
+    return std::max(Float(0), 1 - m_sheen_max * std::min(std::max(e_o, e_i), Float(1)));
+  }
+  // The sheen lobe (reflection on wo's side only), mirrored like the base.
+  S sheen_f(Vector3f wo, Vector3f wi, Float e_o, Float e_i) const {
+    if (!(wo.z * wi.z > 0)) return S{};
+    if (wo.z < 0) {
+      wo.z = -wo.z;
+      wi.z = -wi.z;
+    }
+    const Float v = charlie_sheen(m_sheen_r * m_sheen_r, wo, wi) / std::max({Float(1), e_o, e_i});
+    return m_sheen * v;
+  }
+  S inner_eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
+    if (!(m_sheen_max > 0)) return base_eval(wo, wi, mode);
+    if (wo.z == 0 || wi.z == 0) return S{};
+    const Float e_o = sheen_albedo(std::abs(wo.z)), e_i = sheen_albedo(std::abs(wi.z));
+    return base_eval(wo, wi, mode) * sheen_scale(e_o, e_i) + sheen_f(wo, wi, e_o, e_i);
+  }
+  Float inner_pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
+    if (!(m_sheen_max > 0)) return base_pdf(wo, wi, mode);
+    if (wo.z == 0 || wi.z == 0) return 0;
+    const Float p = sheen_probability(sheen_albedo(std::abs(wo.z)));
+    return (wo.z * wi.z > 0 ? p * inv_2pi : 0) + (1 - p) * base_pdf(wo, wi, mode);
+  }
+  std::optional<BSDFSample<S>> inner_sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
+    if (!(m_sheen_max > 0)) return base_sample(wo, uc, u, mode);
+    if (wo.z == 0) return std::nullopt;
+    const Float e_o = sheen_albedo(std::abs(wo.z));
+    const Float p = sheen_probability(e_o);
+    if (uc < p) {
+      Vector3f wi = sample_uniform_hemisphere(u);
+      if (wo.z < 0) wi.z = -wi.z;
+      if (wi.z == 0) return std::nullopt;
+      const Float pdf = inner_pdf(wo, wi, mode);
+      if (!(pdf > 0)) return std::nullopt;
+      return BSDFSample<S>{inner_eval(wo, wi, mode), wi, pdf, BxDFFlags::glossy_reflection};
+    }
+    auto bs = base_sample(wo, std::min((uc - p) / (1 - p), one_minus_epsilon), u, mode);
+    if (!bs) return std::nullopt;
+    if (bs->is_specular()) {
+      bs->f = bs->f * sheen_scale(e_o, sheen_albedo(std::abs(bs->wi.z)));
+      bs->pdf *= 1 - p;
+      return bs;
+    }
+    bs->f = inner_eval(wo, bs->wi, mode);
+    bs->pdf = inner_pdf(wo, bs->wi, mode);
+    if (!(bs->pdf > 0)) return std::nullopt;
+    return bs;
   }
 
  public:
@@ -684,6 +771,9 @@ class MetalRoughBxDF {
   TrowbridgeReitz m_coat_distrib;
   Frame m_coat_frame;
   bool m_coat_tilted = false;
+  S m_sheen{};            // set_sheen()
+  Float m_sheen_max = 0;  // its largest channel; 0: no sheen
+  Float m_sheen_r = 1;    // its roughness (alpha = r^2)
 };
 
 // The glTF metallic-roughness material with KHR_materials_ior,
@@ -721,6 +811,9 @@ struct MetalRoughTextures {
   // thickness between iridescence_thickness_min and _max.
   std::optional<ImageTexture> iridescence;
   std::optional<ImageTexture> iridescence_thickness;
+  // KHR_materials_sheen: sRGB rgb x sheen_color; linear A x sheen_roughness.
+  std::optional<ImageTexture> sheen_color;
+  std::optional<ImageTexture> sheen_roughness;
 };
 
 // glTF alphaMode: opaque ignores alpha; mask keeps a surface where alpha >=
@@ -762,6 +855,12 @@ struct MetalRoughMaterial {
   Float iridescence = 0;
   Float iridescence_ior = 1.3f;
   Float iridescence_thickness_min = 100, iridescence_thickness_max = 400;
+  // KHR_materials_sheen: the Charlie sheen of this colour (each channel in
+  // [0, 1]) and roughness (alpha = roughness^2, at least
+  // sheen_min_roughness) over the material, under the clear coat
+  // (MetalRoughBxDF::set_sheen). Black: no sheen, as before.
+  RGB sheen_color{0};
+  Float sheen_roughness = 0;
   Float alpha = 1;                // baseColorFactor's alpha
   AlphaMode alpha_mode = AlphaMode::opaque;
   Float alpha_cutoff = 0.5f;
@@ -795,6 +894,8 @@ struct MetalRoughParams {
   RGB base{0}, dielectric_f0{0};
   Float metallic = 0, roughness = 0, specular = 0, transmission = 0;
   Float anisotropy = 0, clearcoat = 0, clearcoat_roughness = 0, iridescence = 0, iridescence_thickness = 0;
+  RGB sheen_color{0};
+  Float sheen_roughness = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
 inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
@@ -807,6 +908,8 @@ struct MetalRoughFactors {
   Float anisotropy;
   Float clearcoat, clearcoat_roughness;
   Float iridescence, iridescence_thickness;  // the film's thickness in nm
+  RGB sheen_color;
+  Float sheen_roughness;
 };
 // The film's thickness: a material's maximum (no texture), a hit's textured value.
 inline Float film_thickness(const MetalRoughMaterial& m) { return m.iridescence_thickness_max; }
@@ -815,7 +918,8 @@ inline Float film_thickness(const MetalRoughFactors& f) { return f.iridescence_t
 inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
   MetalRoughFactors v{m.base_color * si.color, m.metallic,       m.roughness,    m.ior,
                       m.specular,              m.specular_color, m.transmission, m.anisotropy,
-                      m.clearcoat,             m.clearcoat_roughness, m.iridescence, m.iridescence_thickness_max};
+                      m.clearcoat,             m.clearcoat_roughness, m.iridescence, m.iridescence_thickness_max,
+                      m.sheen_color,           m.sheen_roughness};
   if (const MetalRoughTextures* t = m.textures.get()) {
     if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
     if (t->metallic_roughness) {
@@ -836,6 +940,10 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
       Float g = t->iridescence_thickness->evaluate(texcoord(*t->iridescence_thickness, si)).rgb.g;
       v.iridescence_thickness = m.iridescence_thickness_min + (m.iridescence_thickness_max - m.iridescence_thickness_min) * g;
     }
+    const bool sheen = v.sheen_color != RGB(0);
+    if (t->sheen_color && sheen) v.sheen_color = v.sheen_color * t->sheen_color->evaluate(texcoord(*t->sheen_color, si)).rgb;
+    if (t->sheen_roughness && sheen)
+      v.sheen_roughness *= t->sheen_roughness->evaluate(texcoord(*t->sheen_roughness, si)).a;
   }
   return v;
 }
@@ -872,9 +980,12 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   };
   static const char* channel_names[3] = {"base_color.r", "base_color.g", "base_color.b"};
   static const char* spec_names[3] = {"specular_color.r", "specular_color.g", "specular_color.b"};
+  static const char* sheen_names[3] = {"sheen_color.r", "sheen_color.g", "sheen_color.b"};
   for (int i = 0; i < 3; ++i) {
     p.base[i] = unit_or_zero(m.base_color[i]);
     note(channel_names[i], m.base_color[i], p.base[i]);
+    p.sheen_color[i] = unit_or_zero(m.sheen_color[i]);
+    note(sheen_names[i], m.sheen_color[i], p.sheen_color[i]);
   }
   // A parameter of [0, 1], clamped (NaN to 0) and noted.
   auto unit = [&](const char* what, Float from, Float& to) {
@@ -889,6 +1000,7 @@ MetalRoughParams clamp_metal_rough(const M& m, std::string* clamped = nullptr) {
   unit("clearcoat", m.clearcoat, p.clearcoat);
   unit("clearcoat_roughness", m.clearcoat_roughness, p.clearcoat_roughness);
   unit("iridescence", m.iridescence, p.iridescence);
+  unit("sheen_roughness", m.sheen_roughness, p.sheen_roughness);
   p.iridescence_thickness = std::max(film_thickness(m), Float(0));
   Float f0 = MetalRoughMaterial::f0_from_ior(m.ior);
   for (int i = 0; i < 3; ++i) {
@@ -944,6 +1056,8 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
       b.set_iridescence(p.iridescence, m.iridescence_ior, p.iridescence_thickness, m.ior == 0 ? Float(1e4) : m.ior,
                         n_metal, lam);
     }
+    if (p.sheen_color != RGB(0))
+      b.set_sheen(spectrum_traits<S>::albedo(p.sheen_color, lambda), p.sheen_roughness);
     if (p.clearcoat > 0) b.set_clearcoat(p.clearcoat, TrowbridgeReitz(sqr(p.clearcoat_roughness), sqr(p.clearcoat_roughness)),
                                          clearcoat_normal(m, si));
     return b;
@@ -997,6 +1111,8 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     check_finite("clearcoat", m.clearcoat);
     check_finite("clearcoat_roughness", m.clearcoat_roughness);
     check_finite("iridescence", m.iridescence);
+    for (int i = 0; i < 3; ++i) check_finite("sheen_color", m.sheen_color[i]);
+    check_finite("sheen_roughness", m.sheen_roughness);
     if (!(m.iridescence_ior >= 1) || !(m.iridescence_ior < infinity)) {
       std::ostringstream s;
       s << "iridescence_ior = " << m.iridescence_ior << " must be finite and >= 1";

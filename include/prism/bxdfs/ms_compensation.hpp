@@ -25,6 +25,20 @@
 
 namespace prism {
 
+namespace detail {
+// The cell of a uniform grid of n nodes over [0, 1] that holds x (clamped),
+// and x's fraction of the way across it: for bilinear lookups in tables.
+struct GridCell {
+  int i0, i1;
+  Float f;
+};
+inline GridCell unit_grid_cell(Float x, int n) {
+  Float t = std::clamp(x, Float(0), Float(1)) * Float(n - 1);
+  int i0 = std::min(int(t), n - 2);
+  return {i0, i0 + 1, t - Float(i0)};
+}
+}  // namespace detail
+
 class MicrofacetAlbedoTable {
  public:
   static constexpr int n = 32;
@@ -104,15 +118,7 @@ class MicrofacetAlbedoTable {
   static std::pair<double, double> warp(double t) {
     return {t * t * t * (10 - 15 * t + 6 * t * t), 30 * t * t * (1 - t) * (1 - t)};
   }
-  struct Cell {
-    int i0, i1;
-    Float f;
-  };
-  static Cell cell(Float x) {
-    Float t = std::clamp(x, Float(0), Float(1)) * Float(n - 1);
-    int i0 = std::min(int(t), n - 2);
-    return {i0, i0 + 1, t - Float(i0)};
-  }
+  static detail::GridCell cell(Float x) { return detail::unit_grid_cell(x, n); }
 
   std::array<std::array<Float, n>, n> m_E{}, m_A{};
   std::array<Float, n> m_avg{}, m_A_avg{};

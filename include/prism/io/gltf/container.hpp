@@ -90,6 +90,7 @@ inline constexpr bool meshopt_decoder = false;
 inline bool supported_extension(const std::string& e) {
   static const char* known[] = {"KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular",
                                 "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_iridescence",
+                                "KHR_materials_sheen",
                                 "KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_dispersion",
                                 "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_transform",
                                 "KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_mesh_quantization"};

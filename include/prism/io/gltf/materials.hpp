@@ -1,7 +1,7 @@
 // prism/io/gltf/materials.hpp — glTF materials as prism's
 // MetalRoughMaterial: the metallic-roughness factors and textures, alpha
 // modes, normal maps, KHR_materials_ior, _specular, _anisotropy, _clearcoat, _iridescence,
-// _transmission, _volume
+// _sheen, // _transmission, _volume
 // and _dispersion; emission (KHR_materials_emissive_strength,
 // emissiveTexture) as AreaEmission; KHR_materials_unlit as a black surface
 // that emits its base colour; textures with their samplers (wrap and filter
@@ -141,6 +141,23 @@ class Materials {
         double scale = nref.json ? number(nref.json, "scale", 1) : 1;
         m_doc.check_finite_number(scale, ew + ".clearcoatNormalTexture.scale");
         textures->clearcoat_normal_scale = Float(scale);
+      }
+      if (const auto* e = ext(g.extensions, "KHR_materials_sheen")) {
+        std::string ew = where + ".extensions.KHR_materials_sheen";
+        if (e->Has("sheenColorFactor")) {
+          const auto& c = e->Get("sheenColorFactor");
+          if (!c.IsArray() || c.ArrayLen() != 3) m_doc.fail(ew + ".sheenColorFactor", "must have 3 numbers");
+          for (int k = 0; k < 3; ++k) {
+            if (!c.Get(k).IsNumber()) m_doc.fail(ew + ".sheenColorFactor", "must have 3 numbers");
+            double v = c.Get(k).GetNumberAsDouble();
+            m_doc.check_finite_number(v, ew + ".sheenColorFactor");
+            if (v < 0 || v > 1) m_doc.fail(ew + ".sheenColorFactor", "must be in [0, 1]");
+            mat.sheen_color[k] = Float(v);
+          }
+        }
+        mat.sheen_roughness = factor(e, ew, "sheenRoughnessFactor", 0, true);
+        set(textures->sheen_color, texture(ref(e, "sheenColorTexture"), true, ew + ".sheenColorTexture"));
+        set(textures->sheen_roughness, texture(ref(e, "sheenRoughnessTexture"), false, ew + ".sheenRoughnessTexture"));
       }
       if (const auto* e = ext(g.extensions, "KHR_materials_iridescence")) {
         std::string ew = where + ".extensions.KHR_materials_iridescence";
