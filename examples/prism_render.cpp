@@ -255,8 +255,8 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   std::string shutter_note;
   if (job.shutter > 0) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, ", shutter [%g, %g], %zu moving instances", job.time, job.time + job.shutter,
-                  scene.accel().motions().size());
+    std::snprintf(buf, sizeof buf, ", shutter [%g, %g], %zu moving instances%s", job.time, job.time + job.shutter,
+                  scene.accel().motions().size(), camera.placement().is_moving() ? ", moving camera" : "");
     shutter_note = buf;
   }
   std::string lights = std::string(prism::light_selection_name(scene.light_selection())) + " light selection";
@@ -365,12 +365,16 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
   try {
     if (job.camera >= 0 || !g.cameras.empty()) {
       const GltfCamera& c = g.cameras[size_t(std::max(job.camera, 0))];
+      auto place = [&](auto cam) {  // camera motion blur: the node's motion over the shutter
+        if (c.motion) cam.set_motion(*c.motion);
+        return cam;
+      };
       if (c.orthographic)
         return render_and_write(job, model, g.scene,
-                                OrthographicCamera(c.camera_to_world, 2 * c.ymag, job.width, job.height));
+                                place(OrthographicCamera(c.camera_to_world, 2 * c.ymag, job.width, job.height)));
       return render_and_write(job, model, g.scene,
-                              PerspectiveCamera(c.camera_to_world, c.yfov, job.width, job.height, job.aperture,
-                                                job.focus_distance));
+                              place(PerspectiveCamera(c.camera_to_world, c.yfov, job.width, job.height, job.aperture,
+                                                      job.focus_distance)));
     }
     return render_and_write(job, model, g.scene,
                             gltf_framing_camera(g.bounds, job.width, job.height, job.aperture, job.focus_distance));
@@ -448,7 +452,8 @@ int run(int argc, char** argv) {
   app.add_option("--time", job.time, "Time when the shutter opens: glTF animations are sampled then (seconds)");
   app.add_option("--shutter", job.shutter,
                  "Motion blur: the shutter stays open this long after --time; glTF nodes that animations move "
-                 "become moving instances, and the default scene's tall box moves (0: no blur)")
+                 "become moving instances (a moving camera node blurs the whole view), and the default scene's "
+                 "tall box moves (0: no blur)")
       ->check(CLI::Range(0.0, 1e30));
   app.add_option("--env", job.env,
                  "Equirectangular environment map (.hdr, .exr or .pfm) lighting a glTF scene; 'none': no "

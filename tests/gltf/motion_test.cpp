@@ -3,7 +3,10 @@
 // over [0.2, 0.8] s, inside one keyframe interval, its moving instance must
 // be where the cube is when loaded still at each time in between: a ray at
 // time t meets it at the same distance. Skipped when ../shared is absent.
+// A camera node that an animation moves gets its motion over the shutter
+// (camera motion blur), keyed at the shutter's ends.
 #include <catch2/catch.hpp>
+#include "support/gltf_deform.hpp"
 #include "support/random.hpp"
 #include "support/skip.hpp"
 #include <filesystem>
@@ -71,6 +74,64 @@ TEST_CASE("glTF options reject a negative or non-finite shutter and time", "[glt
   GltfOptions bad_time;
   bad_time.time = std::numeric_limits<double>::infinity();
   CHECK_THROWS_WITH(load_gltf<RGB>(path, bad_time), Catch::Contains("time"));
+}
+
+// A camera whose node slides from x = 0 to x = 2 over one second (LINEAR)
+// and turns by 90 degrees about y: loaded with the shutter over [0.25, 0.75],
+// GltfCamera::motion runs from the node at 0.25 (x = 0.5) to the node at
+// 0.75 (x = 1.5), each with glTF's -z view turned to prism's +z; without a
+// shutter, or over an interval the animation does not move, there is none.
+TEST_CASE("a glTF camera node moving over the shutter gets its motion", "[gltf][motion][camera]") {
+  using gltf_deform::json;
+  gltf_deform::Builder b;
+  const float s = std::sqrt(0.5f);
+  int a_t = b.add(std::vector<float>{0, 1}, 5126, "SCALAR");
+  int a_x = b.add(std::vector<float>{0, 0, 5, 2, 0, 5}, 5126, "VEC3");
+  int a_r = b.add(std::vector<float>{0, 0, 0, 1, 0, s, 0, s}, 5126, "VEC4");
+  b.g["scene"] = 0;
+  b.g["scenes"] = json::array({{{"nodes", {0}}}});
+  b.g["nodes"] = json::array({{{"camera", 0}, {"translation", {0, 0, 5}}}});
+  b.g["cameras"] = json::array({{{"type", "perspective"}, {"perspective", {{"yfov", 0.7}, {"znear", 0.1}}}}});
+  b.g["animations"] = json::array({{{"samplers", json::array({{{"input", a_t}, {"output", a_x}, {"interpolation", "LINEAR"}},
+                                                             {{"input", a_t}, {"output", a_r}, {"interpolation", "LINEAR"}}})},
+                                    {"channels", json::array({{{"sampler", 0}, {"target", {{"node", 0}, {"path", "translation"}}}},
+                                                              {{"sampler", 1}, {"target", {{"node", 0}, {"path", "rotation"}}}}})}}});
+  const std::string path = gltf_json::write_temp_gltf("gltf_motion", "camera.gltf", b.finish());
+  GltfOptions blur;
+  blur.time = 0.25;
+  blur.shutter = 0.5;
+  auto g = load_gltf<RGB>(path, blur);
+  REQUIRE(g.cameras.size() == 1);
+  REQUIRE(g.cameras[0].motion.has_value());
+  const AnimatedTransform& m = *g.cameras[0].motion;
+  CHECK(m.start_time() == 0.25f);
+  CHECK(m.end_time() == 0.75f);
+  // The eye and the view direction (glTF's -z of the node) at both ends and
+  // half way: x = 2 t, the node turned by 90 t degrees about y.
+  for (double t : {0.25, 0.5, 0.75}) {
+    Transform xf = m.at(Float(t));
+    Point3f eye = xf(Point3f(0, 0, 0));
+    Vector3f view = normalize(xf(Vector3f(0, 0, 1)));
+    const double a = 0.5 * 3.14159265358979 * t;  // the node's turn about y
+    INFO("time " << t << ": eye " << eye.x << " " << eye.y << " " << eye.z << ", view " << view.x << " " << view.y
+                 << " " << view.z);
+    // 1e-5: float transforms of values of order 1 (a few roundings of 6e-8)
+    CHECK(std::abs(eye.x - 2 * t) < 1e-5);
+    CHECK(std::abs(eye.z - 5) < 1e-5);
+    // The node's -z turned by a about y: (-sin a, 0, -cos a).
+    CHECK(std::abs(view.x + std::sin(a)) < 1e-5);
+    CHECK(std::abs(view.y) < 1e-5);
+    CHECK(std::abs(view.z + std::cos(a)) < 1e-5);
+  }
+  // camera_to_world is the pose when the shutter opens.
+  CHECK(std::abs(g.cameras[0].camera_to_world(Point3f(0, 0, 0)).x - 0.5f) < 1e-5f);
+  GltfOptions still;
+  still.time = 0.25;
+  CHECK_FALSE(load_gltf<RGB>(path, still).cameras[0].motion.has_value());
+  GltfOptions after;  // after the last key nothing moves
+  after.time = 2;
+  after.shutter = 0.5;
+  CHECK_FALSE(load_gltf<RGB>(path, after).cameras[0].motion.has_value());
 }
 
 }  // namespace motion_test

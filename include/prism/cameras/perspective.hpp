@@ -1,12 +1,15 @@
 // prism/cameras/perspective.hpp — a perspective camera with an optional thin
 // lens. Camera space: +x right, +y up, +z forward. Raster space: x right, y
 // down, in pixels. fov_y is the vertical field of view (as glTF's yfov).
+// Also what every camera shares: CameraSample, Shutter, CameraMotion (camera
+// motion blur) and the CameraLike concept.
 #pragma once
 #include <concepts>
 #include <optional>
 #include <string>
 #include "prism/error.hpp"
 #include "prism/geometry/ray.hpp"
+#include "prism/math/animated_transform.hpp"
 #include "prism/math/transform.hpp"
 #include "prism/sampling/warps.hpp"
 
@@ -49,14 +52,48 @@ struct Shutter {
 };
 
 // What render() and the light-tracing pass ask of a camera: a ray for a
-// camera sample, the shutter interval, and where a world point appears on
-// the film (nullopt when it does not). PerspectiveCamera and
-// OrthographicCamera model it.
+// camera sample (at the sample's time), the shutter interval, and where a
+// world point appears on the film at a time (nullopt when it does not).
+// PerspectiveCamera and OrthographicCamera model it.
 template <class C>
-concept CameraLike = requires(const C& c, const CameraSample& s, const Point3f& p, Point2f u) {
+concept CameraLike = requires(const C& c, const CameraSample& s, const Point3f& p, Point2f u, Float time) {
   { c.generate_ray(s) } -> std::same_as<Ray>;
   { c.shutter() } -> std::convertible_to<Shutter>;
-  { c.connect(p, u) } -> std::same_as<std::optional<CameraConnection>>;
+  { c.connect(p, u, time) } -> std::same_as<std::optional<CameraConnection>>;
+};
+
+// Camera motion blur: where a camera is at each time. Still (the default) it
+// is one Transform and a camera pays one branch per ray for the option;
+// moving, an AnimatedTransform (translation and stretch linear, rotation by
+// slerp, between two keys; before the first key's time and after the
+// second's it stays at that key) evaluated at each ray's time. Rays get
+// their times from the camera's Shutter, so the motion matters only while
+// the shutter is open for an interval.
+class CameraMotion {
+ public:
+  CameraMotion() = default;
+  explicit CameraMotion(const Transform& camera_to_world) : m_still(camera_to_world) {}
+  // A motion whose keys are equal is still: camera_to_world() is its first key.
+  explicit CameraMotion(const AnimatedTransform& camera_to_world)
+      : m_still(camera_to_world.at(camera_to_world.start_time())),
+        m_motion(camera_to_world),
+        m_moving(camera_to_world.is_moving()) {}
+  bool is_moving() const { return m_moving; }
+  // The transform when still, else at the first key.
+  const Transform& camera_to_world() const { return m_still; }
+  const AnimatedTransform& motion() const { return m_motion; }
+  // Calls f with the camera-to-world transform at `time`.
+  template <class F>
+  decltype(auto) at(Float time, F&& f) const {
+    if (!m_moving) return f(m_still);
+    const Transform t = m_motion.at(time);
+    return f(t);
+  }
+
+ private:
+  Transform m_still;
+  AnimatedTransform m_motion;
+  bool m_moving = false;
 };
 
 // Which extent of the image a field of view spans: the vertical one (glTF's
@@ -81,7 +118,7 @@ class PerspectiveCamera {
                           focal_distance) {}
   PerspectiveCamera(const Transform& camera_to_world, Float fov_y_radians, int width, int height,
                     Float lens_radius = 0, Float focal_distance = 1)
-      : m_to_world(camera_to_world), m_width(width), m_height(height), m_lens_radius(lens_radius),
+      : m_place(camera_to_world), m_width(width), m_height(height), m_lens_radius(lens_radius),
         m_focal_distance(focal_distance) {
     if (!(lens_radius >= 0) || !std::isfinite(lens_radius))
       throw Error("camera: the aperture radius must be zero or positive and finite, got " + std::to_string(lens_radius));
@@ -95,13 +132,18 @@ class PerspectiveCamera {
 
   int width() const { return m_width; }
   int height() const { return m_height; }
-  const Transform& camera_to_world() const { return m_to_world; }
+  // The camera's transform (when it moves: at its first key).
+  const Transform& camera_to_world() const { return m_place.camera_to_world(); }
   Float lens_radius() const { return m_lens_radius; }
   Float focal_distance() const { return m_focal_distance; }
   const Shutter& shutter() const { return m_shutter; }
   void set_shutter(const Shutter& s) { m_shutter = Shutter::checked(s.open, s.close); }
+  // Camera motion blur: the camera-to-world transform over time, in place of
+  // the constructor's (CameraMotion). Rays and connect() use it at their time.
+  void set_motion(const AnimatedTransform& camera_to_world) { m_place = CameraMotion(camera_to_world); }
+  const CameraMotion& placement() const { return m_place; }
 
-  // A ray through the film position with a unit direction.
+  // A ray through the film position with a unit direction, at the sample's time.
   Ray generate_ray(const CameraSample& s) const {
     Float sx = (2 * s.p_film.x / Float(m_width) - 1) * m_tan_half * m_aspect;
     Float sy = (1 - 2 * s.p_film.y / Float(m_height)) * m_tan_half;
@@ -114,14 +156,19 @@ class PerspectiveCamera {
       o = Point3f{lens.x, lens.y, 0};
       d = normalize(focus - o);
     }
-    return Ray{m_to_world(o), normalize(m_to_world(d)), s.time};
+    return m_place.at(s.time, [&](const Transform& to_world) { return Ray{to_world(o), normalize(to_world(d)), s.time}; });
   }
 
   // Joins the world point p to a lens point (u_lens picks it when the lens has
-  // an aperture) and finds the pixel whose camera ray would see p that way.
-  // nullopt when p is behind the camera or outside the film.
-  std::optional<CameraConnection> connect(const Point3f& p, Point2f u_lens) const {
-    Point3f pc = inverse(m_to_world)(p);
+  // an aperture) and finds the pixel whose camera ray, at `time`, would see p
+  // that way. nullopt when p is behind the camera or outside the film.
+  std::optional<CameraConnection> connect(const Point3f& p, Point2f u_lens, Float time = 0) const {
+    return m_place.at(time, [&](const Transform& to_world) { return connect_at(to_world, p, u_lens); });
+  }
+
+ private:
+  std::optional<CameraConnection> connect_at(const Transform& to_world, const Point3f& p, Point2f u_lens) const {
+    Point3f pc = inverse(to_world)(p);
     Point3f lens{0, 0, 0};
     if (m_lens_radius > 0) {
       Point2f l = sample_uniform_disk_concentric(u_lens) * m_lens_radius;
@@ -142,15 +189,14 @@ class PerspectiveCamera {
     }
     Point2f raster{(fx / (m_tan_half * m_aspect) + 1) * Float(m_width) / 2, (1 - fy / m_tan_half) * Float(m_height) / 2};
     if (!(raster.x >= 0 && raster.x < Float(m_width) && raster.y >= 0 && raster.y < Float(m_height))) return std::nullopt;
-    Point3f lens_world = m_to_world(lens);
+    Point3f lens_world = to_world(lens);
     Float r2 = distance_squared(p, lens_world);
     Float cos_theta = v.z / length(v);
     Float sx = 2 * m_tan_half * m_aspect / Float(m_width), sy = 2 * m_tan_half / Float(m_height);
     return CameraConnection{raster, lens_world, 1 / (r2 * cos_theta * cos_theta * cos_theta * sx * sy)};
   }
 
- private:
-  Transform m_to_world;
+  CameraMotion m_place;
   int m_width = 1, m_height = 1;
   Float m_tan_half = 1, m_aspect = 1;
   Float m_lens_radius = 0, m_focal_distance = 1;

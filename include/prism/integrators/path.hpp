@@ -274,7 +274,7 @@ class PathIntegrator {
       if (!any(flags)) return;
       Point2f u_lens = sampler.get_2d();
       if (specular > 0 && is_non_specular(flags)) {
-        if (auto cc = camera.connect(si->p, u_lens)) {
+        if (auto cc = camera.connect(si->p, u_lens, time)) {
           Vector3f to_cam = cc->p_lens - si->p;
           Float d2 = length_squared(to_cam);
           Vector3f wc = to_cam / std::sqrt(d2);

@@ -48,9 +48,11 @@ struct GltfOptions {
   // Motion blur: a shutter open from `time` to `time + shutter` seconds. A
   // mesh node that the animations move in that interval becomes a moving
   // instance with the node's world transforms at both ends as its keys
-  // (AnimatedTransform: linear translation and stretch, slerp rotation).
-  // Cameras and punctual lights stay where they are at `time`; skinned and
-  // morphed meshes are drawn as they are at `time` (no deformation blur).
+  // (AnimatedTransform: linear translation and stretch, slerp rotation); a
+  // camera node that moves gets the same two keys as GltfCamera::motion
+  // (camera motion blur). Punctual lights stay where they are at `time`;
+  // skinned and morphed meshes are drawn as they are at `time` (no
+  // deformation blur).
   double shutter = 0;
   // Kulla-Conty energy compensation on every material's rough lobes
   // (MetalRoughMaterial::multiple_scattering; docs/microfacets.md). Off by default:
@@ -67,7 +69,11 @@ struct GltfOptions {
 struct GltfCamera {
   std::string name;
   bool orthographic = false;
-  Transform camera_to_world;
+  Transform camera_to_world;  // at GltfOptions::time
+  // Camera motion blur: the camera's transform from the shutter's open to its
+  // close (GltfOptions::shutter), when its node moves in that interval; give
+  // it to the camera with set_motion().
+  std::optional<AnimatedTransform> motion;
   Float yfov = 0;          // perspective: vertical field of view, radians
   Float aspect_ratio = 0;  // perspective: 0 if the file leaves it to the viewer
   Float ymag = 0;          // orthographic: half the window height
@@ -320,7 +326,7 @@ class Loader {
     }
     if (node.camera != -1) {
       m_doc.check_index(node.camera, m_doc.model.cameras.size(), where + ".camera", "camera");
-      place_camera(node.camera, world);
+      place_camera(node.camera, world, world_end);
     }
     if (const auto* e = ext(node.extensions, "KHR_lights_punctual")) {
       int l = int(number(e, "light", -1));
@@ -442,7 +448,8 @@ class Loader {
     return b;
   }
 
-  void place_camera(int c, const Matrix4d& world) {
+  // world_end: the node's world transform when the shutter closes.
+  void place_camera(int c, const Matrix4d& world, const Matrix4d& world_end) {
     const auto& cam = m_doc.model.cameras[size_t(c)];
     std::string where = idx("cameras", c);
     GltfCamera out;
@@ -451,13 +458,27 @@ class Loader {
     Matrix4d flip;
     flip.m[10] = -1;
     // Remove the node's scale: a camera's frame is rigid.
-    Matrix4d w = world;
-    for (size_t j = 0; j < 3; ++j) {
-      double l = std::sqrt(w.m[j] * w.m[j] + w.m[4 + j] * w.m[4 + j] + w.m[8 + j] * w.m[8 + j]);
-      if (!(l > 0)) m_doc.fail(where, "its node's transform is singular");
-      for (size_t i = 0; i < 3; ++i) w.m[4 * i + j] /= l;
+    auto rigid = [&](Matrix4d w) {
+      for (double v : w.m)
+        if (!std::isfinite(v)) m_doc.fail(where, "its node's world transform is not finite");
+      for (size_t j = 0; j < 3; ++j) {
+        double l = std::sqrt(w.m[j] * w.m[j] + w.m[4 + j] * w.m[4 + j] + w.m[8 + j] * w.m[8 + j]);
+        if (!(l > 0)) m_doc.fail(where, "its node's transform is singular");
+        for (size_t i = 0; i < 3; ++i) w.m[4 * i + j] /= l;
+      }
+      return Transform((w * flip).to_float());
+    };
+    out.camera_to_world = rigid(world);
+    if (world_end != world) {
+      try {
+        out.motion = AnimatedTransform(TransformKey::decompose(out.camera_to_world),
+                                       TransformKey::decompose(rigid(world_end)), Float(m_opt.time),
+                                       Float(m_opt.time + m_opt.shutter), where + ": motion");
+      } catch (const Error& e) {
+        m_doc.fail(where, e.what());
+      }
+      if (!out.motion->is_moving()) out.motion.reset();
     }
-    out.camera_to_world = Transform((w * flip).to_float());
     if (cam.type == "perspective") {
       out.yfov = Float(cam.perspective.yfov);
       out.aspect_ratio = Float(cam.perspective.aspectRatio);
