@@ -15,16 +15,25 @@
 // sRGB textures (glTF baseColorTexture, emissiveTexture) are decoded per texel
 // before filtering, as GPUs do for SRGB8 formats: 8-bit values through an exact
 // 256-entry table, 16-bit and float values through the formula. Alpha is never
-// decoded. Mipmaps are not used: `filter` is the magnification filter.
+// decoded. evaluate(uv) applies `filter`, the magnification filter, to the
+// image; evaluate(uv, footprint, TextureFilter) filters over a pixel's
+// footprint in uv with the MIP pyramid (textures/mipmap.hpp,
+// build_mipmaps()): trilinear (two levels' bilinear lookups blended by the
+// footprint's size) or EWA (Heckbert 1989: a Gaussian over the footprint's
+// ellipse, as pbrt-v4 filters, eccentricity at most max_anisotropy).
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string_view>
+#include <vector>
 #include "prism/math/vector.hpp"
 #include "prism/spectra/rgb.hpp"
 #include "prism/spectra/spectrum.hpp"
 #include "prism/textures/image.hpp"
+#include "prism/textures/mipmap.hpp"
 
 namespace prism {
 
@@ -33,6 +42,33 @@ enum class WrapMode : uint8_t { repeat, clamp_to_edge, mirrored_repeat };
 // glTF sampler magFilter: 9728 NEAREST, 9729 LINEAR.
 enum class FilterMode : uint8_t { nearest, linear };
 enum class ColorEncoding : uint8_t { linear, srgb };
+
+// How a lookup over a pixel's footprint filters (prism-render
+// --texture-filter): point, the nearest texel of the image; bilinear, the
+// sampler's magnification filter on the image whatever the footprint (what
+// evaluate(uv) does); trilinear and ewa, the MIP pyramid where the footprint
+// covers more than a texel, else the magnification filter.
+enum class TextureFilter : uint8_t { point, bilinear, trilinear, ewa };
+constexpr const char* texture_filter_name(TextureFilter f) {
+  switch (f) {
+    case TextureFilter::point: return "point";
+    case TextureFilter::bilinear: return "bilinear";
+    case TextureFilter::trilinear: return "trilinear";
+    case TextureFilter::ewa: return "ewa";
+  }
+  return "?";
+}
+constexpr std::optional<TextureFilter> parse_texture_filter(std::string_view s) {
+  for (TextureFilter f : {TextureFilter::point, TextureFilter::bilinear, TextureFilter::trilinear, TextureFilter::ewa})
+    if (s == texture_filter_name(f)) return f;
+  return std::nullopt;
+}
+
+// A pixel's footprint in uv: how uv changes from one pixel to the next along
+// x (dudx, dvdx) and y (dudy, dvdy). Zero: a point.
+struct TextureFootprint {
+  Float dudx = 0, dvdx = 0, dudy = 0, dvdy = 0;
+};
 
 // The glTF (OpenGL) enum values; nullopt for anything else. A glTF sampler
 // without wrapS/wrapT means repeat; without magFilter, the implementation's
@@ -70,6 +106,13 @@ struct TextureTransform {
   Float rotation = 0;
   Point2f scale{1, 1};
 
+  // The linear part alone (scale, then rotation), for derivatives.
+  Point2f apply_linear(Point2f d) const noexcept {
+    const Float su = d.x * scale.x, sv = d.y * scale.y;
+    if (rotation == 0) return {su, sv};
+    const Float c = std::cos(rotation), s = std::sin(rotation);
+    return {c * su + s * sv, -s * su + c * sv};
+  }
   Point2f apply(Point2f uv) const noexcept {
     const Float su = uv.x * scale.x, sv = uv.y * scale.y;
     Float ru = su, rv = sv;
@@ -183,6 +226,81 @@ class ImageTexture {
   ColorEncoding encoding = ColorEncoding::linear;  // srgb: colour channels decoded per texel before filtering
   TextureTransform transform;
   int texcoord = 0;  // which TEXCOORD_n set (0 or 1); the caller picks the uv
+  // Levels 1, 2, ... of the MIP pyramid (build_mipmaps(); null: none, and
+  // the footprint lookups use the image alone). Shared like the image.
+  std::shared_ptr<const std::vector<TextureImage>> mips;
+  // glTF minFilter: false for NEAREST or LINEAR (no mipmaps), which the
+  // footprint lookups honour by filtering the image alone.
+  bool use_mipmaps = true;
+  Float max_anisotropy = 8;  // EWA: the footprint's ellipse at most this eccentric
+
+  // Builds the pyramid for this texture's encoding (O(texels), once per
+  // image and encoding: share `mips` between textures of the same image).
+  void build_mipmaps() {
+    if (image && !image->empty())
+      mips = std::make_shared<const std::vector<TextureImage>>(build_mip_levels(*image, encoding == ColorEncoding::srgb));
+  }
+  // The number of levels the footprint lookups use (1: the image alone).
+  int levels() const noexcept { return 1 + (use_mipmaps && mips ? int(mips->size()) : 0); }
+  const TextureImage& level(int k) const noexcept { return k == 0 ? *image : (*mips)[size_t(k - 1)]; }
+
+  // Filtered RGBA over a pixel's footprint (uv and footprint before the
+  // transform, which is applied to both). Trilinear: the footprint's size
+  // in texels w = max(|d/dx|, |d/dy|) (uv scaled by the image's size) picks
+  // the level log2(w); levels 0 and below are evaluate(uv) exactly. EWA: a
+  // Gaussian (exp(-2 r^2) - exp(-2)) over the ellipse the two derivative
+  // vectors span (widened by a texel, the minor axis stretched to at least
+  // 1 / max_anisotropy of the major), on the two levels around the minor
+  // axis' size. Allocates nothing and throws nothing.
+  RGBA evaluate(Point2f uv, TextureFootprint fp, TextureFilter f) const noexcept {
+    const TextureImage* img = image.get();
+    if (!img || img->empty()) return {RGB(1), 1};
+    if (f == TextureFilter::bilinear) return evaluate(uv);
+    if (!transform.is_identity()) {
+      uv = transform.apply(uv);
+      const Point2f dx = transform.apply_linear({fp.dudx, fp.dvdx}), dy = transform.apply_linear({fp.dudy, fp.dvdy});
+      fp = {dx.x, dx.y, dy.x, dy.y};
+    }
+    const Float u = std::isfinite(uv.x) ? uv.x : Float(0);
+    const Float v = std::isfinite(uv.y) ? uv.y : Float(0);
+    if (f == TextureFilter::point) return lookup_level(0, u, v, FilterMode::nearest);
+    const Float W = Float(img->width()), H = Float(img->height());
+    const Float lx = std::sqrt(sqr(fp.dudx * W) + sqr(fp.dvdx * H)), ly = std::sqrt(sqr(fp.dudy * W) + sqr(fp.dvdy * H));
+    const int n = levels();
+    if (f == TextureFilter::trilinear || !(std::min(lx, ly) > 0)) {
+      const Float width = std::max(lx, ly);
+      if (!(width > 1) || n == 1 || !std::isfinite(width)) return lookup_level(0, u, v, filter);
+      const Float l = std::min(std::log2(width), Float(n - 1));
+      const int l0 = std::min(int(l), n - 1), l1 = std::min(l0 + 1, n - 1);
+      const Float t = l - Float(l0);
+      RGBA a = lookup_level(l0, u, v, FilterMode::linear);
+      if (t == 0 || l1 == l0) return a;
+      RGBA b = lookup_level(l1, u, v, FilterMode::linear);
+      return {a.rgb * (1 - t) + b.rgb * t, a.a * (1 - t) + b.a * t};
+    }
+    // EWA: major axis a, minor axis b (uv units), b clamped to |a| / max_anisotropy.
+    Float au = fp.dudx, av = fp.dvdx, bu = fp.dudy, bv = fp.dvdy;
+    Float la = lx, lb = ly;
+    if (lb > la) {
+      std::swap(au, bu);
+      std::swap(av, bv);
+      std::swap(la, lb);
+    }
+    if (lb * max_anisotropy < la) {
+      const Float k = la / (lb * max_anisotropy);
+      bu *= k;
+      bv *= k;
+      lb *= k;
+    }
+    if (!std::isfinite(la)) return lookup_level(0, u, v, filter);
+    const Float l = std::clamp(std::log2(std::max(lb, Float(1e-8))), Float(0), Float(n - 1));
+    const int l0 = std::min(int(l), n - 1), l1 = std::min(l0 + 1, n - 1);
+    const Float t = l - Float(l0);
+    RGBA a = ewa_level(l0, u, v, au, av, bu, bv);
+    if (t == 0 || l1 == l0) return a;
+    RGBA b = ewa_level(l1, u, v, au, av, bu, bv);
+    return {a.rgb * (1 - t) + b.rgb * t, a.a * (1 - t) + b.a * t};
+  }
 
   // Filtered RGBA (linear values) at uv, the transform applied first. A
   // non-finite coordinate (after the transform) is replaced by 0, so it gives
@@ -219,15 +337,87 @@ class ImageTexture {
   }
 
  private:
+  // The sampler's lookup (nearest or bilinear) on level k.
+  RGBA lookup_level(int k, Float u, Float v, FilterMode mode) const noexcept {
+    const TextureImage& img = level(k);
+    const float* table = encoding == ColorEncoding::srgb ? srgb_u8_decode_table().data() : nullptr;
+    switch (img.format()) {
+      case PixelFormat::u8: return lookup(img.u8_data().data(), img, u, v, table, mode);
+      case PixelFormat::u16: return lookup(img.u16_data().data(), img, u, v, table, mode);
+      case PixelFormat::f32: return lookup(img.f32_data().data(), img, u, v, table, mode);
+    }
+    return {RGB(1), 1};
+  }
+  // Texel (x, y) of level k, wrapped, decoded, into c.
+  void texel(const TextureImage& img, int64_t x, int64_t y, float* c) const noexcept {
+    const int64_t w = img.width(), h = img.height();
+    x = detail::wrap_texel(x, w, wrap_s);
+    y = detail::wrap_texel(y, h, wrap_t);
+    const int nc = img.channels();
+    const size_t i = (size_t(y) * size_t(w) + size_t(x)) * size_t(nc);
+    const float* table = encoding == ColorEncoding::srgb ? srgb_u8_decode_table().data() : nullptr;
+    switch (img.format()) {
+      case PixelFormat::u8: detail::load_texel(img.u8_data().data(), i, nc, table, c); break;
+      case PixelFormat::u16: detail::load_texel(img.u16_data().data(), i, nc, table, c); break;
+      case PixelFormat::f32: detail::load_texel(img.f32_data().data(), i, nc, table, c); break;
+    }
+  }
+  // EWA on level k: texel space s = u W - 1/2, t = v H - 1/2; the ellipse
+  // A ds^2 + B ds dt + C dt^2 < 1 of the axes (du0, dv0), (du1, dv1) in
+  // texels, each of A and C raised by 1 (at least a texel wide), normalised
+  // by F = A C - B^2 / 4 (Heckbert 1989, section 3.5.8).
+  RGBA ewa_level(int k, Float u, Float v, Float au, Float av, Float bu, Float bv) const noexcept {
+    const TextureImage& img = level(k);
+    const Float W = Float(img.width()), H = Float(img.height());
+    u = detail::reduce_coordinate(u, wrap_s);
+    v = detail::reduce_coordinate(v, wrap_t);
+    const Float s = u * W - Float(0.5), t = v * H - Float(0.5);
+    const Float du0 = au * W, dv0 = av * H, du1 = bu * W, dv1 = bv * H;
+    Float A = dv0 * dv0 + dv1 * dv1 + 1, B = -2 * (du0 * dv0 + du1 * dv1), C = du0 * du0 + du1 * du1 + 1;
+    const Float inv_f = 1 / (A * C - B * B / 4);
+    A *= inv_f;
+    B *= inv_f;
+    C *= inv_f;
+    const Float det = -B * B + 4 * A * C, inv_det = 1 / det;
+    const Float us = std::sqrt(det * C), vs = std::sqrt(A * det);
+    const int64_t s0 = int64_t(std::ceil(s - 2 * inv_det * us)), s1 = int64_t(std::floor(s + 2 * inv_det * us));
+    const int64_t t0 = int64_t(std::ceil(t - 2 * inv_det * vs)), t1 = int64_t(std::floor(t + 2 * inv_det * vs));
+    const int nc = img.channels();
+    double sum[4] = {0, 0, 0, 0}, wsum = 0;
+    const Float e = std::exp(Float(-2));
+    float c[4] = {0, 0, 0, 0};
+    for (int64_t y = t0; y <= t1; ++y) {
+      const Float dt = Float(y) - t;
+      for (int64_t x = s0; x <= s1; ++x) {
+        const Float ds = Float(x) - s;
+        const Float r2 = A * ds * ds + B * ds * dt + C * dt * dt;
+        if (!(r2 < 1)) continue;
+        const double wgt = double(std::exp(-2 * r2) - e);
+        texel(img, x, y, c);
+        for (int q = 0; q < nc; ++q) sum[q] += wgt * c[q];
+        wsum += wgt;
+      }
+    }
+    if (!(wsum > 0)) return lookup_level(k, u, v, FilterMode::linear);
+    float m[4];
+    for (int q = 0; q < 4; ++q) m[q] = float(sum[q] / wsum);
+    return detail::expand_channels(m, nc);
+  }
+
   template <class T>
   RGBA lookup(const T* p, const TextureImage& img, Float u, Float v, const float* table) const noexcept {
+    return lookup(p, img, u, v, table, filter);
+  }
+  template <class T>
+  RGBA lookup(const T* p, const TextureImage& img, Float u, Float v, const float* table,
+              FilterMode mode) const noexcept {
     const int64_t w = img.width(), h = img.height();
     const int nc = img.channels();
     const size_t stride = size_t(nc);
     u = detail::reduce_coordinate(u, wrap_s);
     v = detail::reduce_coordinate(v, wrap_t);
     float c[4] = {0, 0, 0, 0};  // zeroed: GCC 12 -O3 -march=native sees a false maybe-uninitialized
-    if (filter == FilterMode::nearest) {
+    if (mode == FilterMode::nearest) {
       const int64_t x = detail::wrap_texel(int64_t(std::floor(u * Float(w))), w, wrap_s);
       const int64_t y = detail::wrap_texel(int64_t(std::floor(v * Float(h))), h, wrap_t);
       detail::load_texel(p, (size_t(y) * size_t(w) + size_t(x)) * stride, nc, table, c);
