@@ -2,7 +2,8 @@
 // meshes) + BVH build + one camera sample, and the process's peak memory.
 // Run once per configuration (peak memory is per process); restrict the cores
 // with taskset to measure one thread: `taskset -c 0 gltf_load_bench file 1`.
-// Usage: gltf_load_bench FILE [THREADS]
+// Usage: gltf_load_bench FILE [THREADS] [TEXTURE_FILTER]
+// (TEXTURE_FILTER trilinear or ewa also builds every image's MIP pyramid.)
 #include <sys/resource.h>
 #include <chrono>
 #include <cstdio>
@@ -13,12 +14,21 @@
 int main(int argc, char** argv) {
   using namespace prism;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: gltf_load_bench FILE [THREADS]\n");
+    std::fprintf(stderr, "usage: gltf_load_bench FILE [THREADS] [TEXTURE_FILTER]\n");
     return 2;
   }
   int threads = argc > 2 ? std::atoi(argv[2]) : 0;
   auto t0 = std::chrono::steady_clock::now();
-  auto g = load_gltf<RGB>(argv[1]);
+  GltfOptions gopt;
+  if (argc > 3) {
+    auto f = parse_texture_filter(argv[3]);
+    if (!f) {
+      std::fprintf(stderr, "unknown texture filter '%s'\n", argv[3]);
+      return 2;
+    }
+    gopt.texture_filter = *f;
+  }
+  auto g = load_gltf<RGB>(argv[1], gopt);
   auto t1 = std::chrono::steady_clock::now();
   g.scene.add_light(UniformInfiniteLight<RGB>(RGB(1)));
   BVHBuildOptions bopt;

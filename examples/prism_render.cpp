@@ -125,6 +125,7 @@ struct Job {
   int camera = -1;
   double time = 0;
   double shutter = 0;  // seconds the shutter stays open from `time` (motion blur)
+  prism::TextureFilter texture_filter = prism::TextureFilter::bilinear;
   bool multiple_scattering = false;  // glTF materials: energy compensation (GltfOptions)
   std::string variant;  // glTF KHR_materials_variants: the variant to load (empty: the defaults)
   std::string env;
@@ -362,11 +363,18 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
                        job.force_full ? BxDFSetKind::full : BxDFSetKind::metal_rough};
     job.instantiation = describe(inst, f) + (job.force_full ? " [forced: --instantiation full]" : " [auto]");
   }
+  // Texture filtering over the pixel's footprint, seen from this camera at
+  // this many samples per pixel (--texture-filter trilinear or ewa).
+  auto footprint = [&](const auto& cam) {
+    if (job.texture_filter == TextureFilter::trilinear || job.texture_filter == TextureFilter::ewa)
+      g.scene.set_pixel_footprint(PixelFootprint(cam, job.target_error > 0 ? job.max_spp : job.spp));
+  };
   try {
     if (job.camera >= 0 || !g.cameras.empty()) {
       const GltfCamera& c = g.cameras[size_t(std::max(job.camera, 0))];
       auto place = [&](auto cam) {  // camera motion blur: the node's motion over the shutter
         if (c.motion) cam.set_motion(*c.motion);
+        footprint(cam);
         return cam;
       };
       if (c.orthographic)
@@ -376,8 +384,9 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
                               place(PerspectiveCamera(c.camera_to_world, c.yfov, job.width, job.height, job.aperture,
                                                       job.focus_distance)));
     }
-    return render_and_write(job, model, g.scene,
-                            gltf_framing_camera(g.bounds, job.width, job.height, job.aperture, job.focus_distance));
+    PerspectiveCamera framing = gltf_framing_camera(g.bounds, job.width, job.height, job.aperture, job.focus_distance);
+    footprint(framing);
+    return render_and_write(job, model, g.scene, framing);
   } catch (const Error& e) {
     return fail(e.what());
   }
@@ -391,6 +400,7 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   gopt.shutter = job.shutter;
   gopt.multiple_scattering = job.multiple_scattering;
   gopt.variant = job.variant;
+  gopt.texture_filter = job.texture_filter;
   try {
     auto g = prism::load_gltf<S, Set>(path, gopt);
     // A material that RGB cannot render exactly (a dispersive volume): load
@@ -469,6 +479,11 @@ int run(int argc, char** argv) {
   app.add_option("--variant", job.variant,
                  "glTF KHR_materials_variants: load this named material variant (default: the file's default "
                  "materials)");
+  std::string texture_filter = "bilinear";
+  app.add_option("--texture-filter", texture_filter,
+                 "glTF textures over a pixel's footprint: point, bilinear (the sampler's filter, default), trilinear "
+                 "or ewa (MIP maps; docs/gltf.md)")
+      ->check(CLI::IsMember({"point", "bilinear", "trilinear", "ewa"}));
   app.add_flag("--multiple-scattering", job.multiple_scattering,
                "glTF materials: Kulla-Conty energy compensation of rough lobes (off: single scattering)");
   app.add_option("--integrator", job.integrator, "path (NEE + MIS) or bsdf (BSDF sampling only)")
@@ -553,6 +568,9 @@ int run(int argc, char** argv) {
   if (job.threads == 0 && distributed()) job.threads = node_threads;
 #endif
   if (job.outputs.empty()) job.outputs.push_back("default.png");
+  job.texture_filter = *prism::parse_texture_filter(texture_filter);  // checked by IsMember
+  if (job.texture_filter != prism::TextureFilter::bilinear && scene_path.empty() && g_rank == 0 && !job.quiet)
+    std::fprintf(stderr, "prism-render: --texture-filter applies to glTF textures; the default scene has none\n");
   if (job.target_error > 0 && distributed())
     return fail_everywhere("--target-error (adaptive sampling) does not run under mpirun: its rounds need the "
                            "whole image in one process; run prism-render without mpirun");

@@ -898,7 +898,13 @@ struct MetalRoughParams {
   Float sheen_roughness = 0;
 };
 inline Float unit_or_zero(Float v) { return v > 0 ? std::min(v, Float(1)) : Float(0); }  // NaN -> 0
-inline Point2f texcoord(const ImageTexture& t, const SurfaceInteraction& si) { return t.texcoord == 1 ? si.uv1 : si.uv; }
+// A texture's value at a hit: over the pixel's footprint (the texture's
+// filtering) for TEXCOORD_0, at the point for TEXCOORD_1 (the footprint is
+// TEXCOORD_0's).
+inline RGBA lookup(const ImageTexture& t, const SurfaceInteraction& si) {
+  if (t.texcoord == 1) return t.evaluate(si.uv1);
+  return t.evaluate(si.uv, TextureFootprint{si.dudx, si.dvdx, si.dudy, si.dvdy});
+}
 // The numbers of a MetalRoughMaterial at a hit, before clamping.
 struct MetalRoughFactors {
   RGB base_color;
@@ -921,29 +927,29 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
                       m.clearcoat,             m.clearcoat_roughness, m.iridescence, m.iridescence_thickness_max,
                       m.sheen_color,           m.sheen_roughness};
   if (const MetalRoughTextures* t = m.textures.get()) {
-    if (t->base_color) v.base_color = v.base_color * t->base_color->evaluate(texcoord(*t->base_color, si)).rgb;
+    if (t->base_color) v.base_color = v.base_color * lookup(*t->base_color, si).rgb;
     if (t->metallic_roughness) {
-      RGB mr = t->metallic_roughness->evaluate(texcoord(*t->metallic_roughness, si)).rgb;
+      RGB mr = lookup(*t->metallic_roughness, si).rgb;
       v.metallic *= mr.b;
       v.roughness *= mr.g;
     }
-    if (t->transmission) v.transmission *= t->transmission->evaluate(texcoord(*t->transmission, si)).rgb.r;
-    if (t->specular) v.specular *= t->specular->evaluate(texcoord(*t->specular, si)).a;
+    if (t->transmission) v.transmission *= lookup(*t->transmission, si).rgb.r;
+    if (t->specular) v.specular *= lookup(*t->specular, si).a;
     if (t->specular_color)
-      v.specular_color = v.specular_color * t->specular_color->evaluate(texcoord(*t->specular_color, si)).rgb;
-    if (t->anisotropy && v.anisotropy != 0) v.anisotropy *= t->anisotropy->evaluate(texcoord(*t->anisotropy, si)).rgb.b;
-    if (t->clearcoat && v.clearcoat != 0) v.clearcoat *= t->clearcoat->evaluate(texcoord(*t->clearcoat, si)).rgb.r;
+      v.specular_color = v.specular_color * lookup(*t->specular_color, si).rgb;
+    if (t->anisotropy && v.anisotropy != 0) v.anisotropy *= lookup(*t->anisotropy, si).rgb.b;
+    if (t->clearcoat && v.clearcoat != 0) v.clearcoat *= lookup(*t->clearcoat, si).rgb.r;
     if (t->clearcoat_roughness && v.clearcoat != 0)
-      v.clearcoat_roughness *= t->clearcoat_roughness->evaluate(texcoord(*t->clearcoat_roughness, si)).rgb.g;
-    if (t->iridescence && v.iridescence != 0) v.iridescence *= t->iridescence->evaluate(texcoord(*t->iridescence, si)).rgb.r;
+      v.clearcoat_roughness *= lookup(*t->clearcoat_roughness, si).rgb.g;
+    if (t->iridescence && v.iridescence != 0) v.iridescence *= lookup(*t->iridescence, si).rgb.r;
     if (t->iridescence_thickness && v.iridescence != 0) {
-      Float g = t->iridescence_thickness->evaluate(texcoord(*t->iridescence_thickness, si)).rgb.g;
+      Float g = lookup(*t->iridescence_thickness, si).rgb.g;
       v.iridescence_thickness = m.iridescence_thickness_min + (m.iridescence_thickness_max - m.iridescence_thickness_min) * g;
     }
     const bool sheen = v.sheen_color != RGB(0);
-    if (t->sheen_color && sheen) v.sheen_color = v.sheen_color * t->sheen_color->evaluate(texcoord(*t->sheen_color, si)).rgb;
+    if (t->sheen_color && sheen) v.sheen_color = v.sheen_color * lookup(*t->sheen_color, si).rgb;
     if (t->sheen_roughness && sheen)
-      v.sheen_roughness *= t->sheen_roughness->evaluate(texcoord(*t->sheen_roughness, si)).a;
+      v.sheen_roughness *= lookup(*t->sheen_roughness, si).a;
   }
   return v;
 }
@@ -953,7 +959,7 @@ inline MetalRoughFactors textured(const MetalRoughMaterial& m, const SurfaceInte
 inline std::array<Float, 2> anisotropy_direction(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
   Float dx = 1, dy = 0;
   if (m.textures && m.textures->anisotropy) {
-    RGB t = m.textures->anisotropy->evaluate(texcoord(*m.textures->anisotropy, si)).rgb;
+    RGB t = lookup(*m.textures->anisotropy, si).rgb;
     dx = 2 * t.r - 1;
     dy = 2 * t.g - 1;
   }
@@ -964,7 +970,7 @@ inline std::array<Float, 2> anisotropy_direction(const MetalRoughMaterial& m, co
 inline Float metal_rough_opacity(const MetalRoughMaterial& m, const SurfaceInteraction& si) {
   if (m.alpha_mode == AlphaMode::opaque) return 1;
   Float a = m.alpha * si.alpha;
-  if (m.textures && m.textures->base_color) a *= m.textures->base_color->evaluate(texcoord(*m.textures->base_color, si)).a;
+  if (m.textures && m.textures->base_color) a *= lookup(*m.textures->base_color, si).a;
   if (m.alpha_mode == AlphaMode::mask) return a >= m.alpha_cutoff ? Float(1) : Float(0);
   return std::clamp(a, Float(0), Float(1));
 }
@@ -1075,7 +1081,7 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
       bool has_tangent = length_squared(si.tangent) > 0;
       Vector3f t = has_tangent ? si.tangent : si.dpdu;
       Vector3f b = has_tangent ? cross(Vector3f(si.ns), si.tangent) * si.tangent_w : -si.dpdv;
-      n = Vector3f(apply_normal_map(nt.evaluate(detail::texcoord(nt, si)).rgb, m.textures->clearcoat_normal_scale, t,
+      n = Vector3f(apply_normal_map(detail::lookup(nt, si).rgb, m.textures->clearcoat_normal_scale, t,
                                     b, si.ns));
     }
     Vector3f local = shading_frame(m, si).to_local(n);
@@ -1178,7 +1184,7 @@ struct bxdf_traits<MetalRoughBxDF<S>> {
     SurfaceInteraction mapped = si;
     if (mapped_normal) {
       const ImageTexture& nt = *m.textures->normal;
-      RGB texel = nt.evaluate(detail::texcoord(nt, si)).rgb;
+      RGB texel = detail::lookup(nt, si).rgb;
       mapped.ns = apply_normal_map(texel, m.textures->normal_scale, t, b, si.ns);
     }
     mapped.dpdu = t;

@@ -22,6 +22,9 @@ class OrthographicCamera {
 
   int width() const { return m_width; }
   int height() const { return m_height; }
+  // Half the screen window's size in world units.
+  Float window_half_width() const { return m_half_w; }
+  Float window_half_height() const { return m_half_h; }
   // The camera's transform (when it moves: at its first key).
   const Transform& camera_to_world() const { return m_place.camera_to_world(); }
   const Shutter& shutter() const { return m_shutter; }

@@ -7,6 +7,7 @@
 #include <concepts>
 #include <optional>
 #include <string>
+#include "prism/attributes.hpp"
 #include "prism/error.hpp"
 #include "prism/geometry/ray.hpp"
 #include "prism/math/animated_transform.hpp"
@@ -85,10 +86,12 @@ class CameraMotion {
   // Calls f with the camera-to-world transform at `time`.
   template <class F>
   decltype(auto) at(Float time, F&& f) const {
-    if (!m_moving) return f(m_still);
-    const Transform t = m_motion.at(time);
+    if (!m_moving) [[likely]] return f(m_still);
+    const Transform t = transform_at(time);
     return f(t);
   }
+  // The transform at `time` (out of line: a still camera's rays stay lean).
+  PRISM_NOINLINE Transform transform_at(Float time) const { return m_moving ? m_motion.at(time) : m_still; }
 
  private:
   Transform m_still;
@@ -135,6 +138,8 @@ class PerspectiveCamera {
   // The camera's transform (when it moves: at its first key).
   const Transform& camera_to_world() const { return m_place.camera_to_world(); }
   Float lens_radius() const { return m_lens_radius; }
+  // tan(fov_y / 2): half the image plane's height at distance 1.
+  Float fov_tan_half() const { return m_tan_half; }
   Float focal_distance() const { return m_focal_distance; }
   const Shutter& shutter() const { return m_shutter; }
   void set_shutter(const Shutter& s) { m_shutter = Shutter::checked(s.open, s.close); }

@@ -18,6 +18,10 @@ struct SurfaceInteraction {
   Vector3f dpdv;      // the other uv derivative (normal mapping without tangents)
   Point2f uv;
   Point2f uv1;        // second texture coordinate set (glTF TEXCOORD_1), (0, 0) if absent
+  // The pixel's footprint in uv (TEXCOORD_0): how uv changes from one pixel
+  // to the next along x and y, for texture filtering. 0 unless the scene has
+  // a PixelFootprint (cameras/footprint.hpp, Scene::set_pixel_footprint).
+  Float dudx = 0, dvdx = 0, dudy = 0, dvdy = 0;
   Vector3f tangent;   // a mesh's own tangent (glTF TANGENT), zero if absent
   Float tangent_w = 1;  // its bitangent handedness
   RGB color{1};       // vertex colour (glTF COLOR_0), white if absent

@@ -13,6 +13,7 @@
 #include "prism/bxdfs/bsdf.hpp"
 #include "prism/bxdfs/hooks.hpp"
 #include "prism/bxdfs/sets.hpp"
+#include "prism/cameras/footprint.hpp"
 #include "prism/error.hpp"
 #include "prism/integrators/integrator.hpp"
 #include "prism/lights/bvh_sampler.hpp"
@@ -260,6 +261,12 @@ class Scene {
     auto si = intersect_with_alpha(ray, t_max, skip_instance, skip_primitive, &skipped);
     return si.has_value() && !skipped;
   }
+  // Texture filtering: every hit gets the pixel's footprint in uv
+  // (SurfaceInteraction::dudx ...) from this camera model
+  // (cameras/footprint.hpp); textures whose ImageTexture::filtering is
+  // trilinear or EWA filter over it. The default (inactive) leaves it 0.
+  void set_pixel_footprint(const PixelFootprint& f) { m_footprint = f; }
+  const PixelFootprint& pixel_footprint() const { return m_footprint; }
   // True if some instance's material may be transparent (alpha); valid after build().
   bool has_transparency() const { return m_any_transparent; }
 
@@ -335,6 +342,15 @@ class Scene {
     SurfaceInteraction si = m_accel.interaction(ray, h);
     const auto& info = m_info[h.instance];
     si.material = info.material;
+    if (m_footprint.active()) {
+      Vector3f dpdx, dpdy;
+      m_footprint.dp(si.p, si.n, &dpdx, &dpdy);
+      const UVFootprint f = uv_footprint(dpdx, dpdy, si.dpdu, si.dpdv);
+      si.dudx = f.dudx;
+      si.dvdx = f.dvdx;
+      si.dudy = f.dudy;
+      si.dvdy = f.dvdy;
+    }
     si.area_light = info.light_offset < 0 ? -1 : info.light_offset + int32_t(h.primitive);
     return si;
   }
@@ -429,6 +445,7 @@ class Scene {
   bool m_has_specular = false;
   std::vector<uint8_t> m_transparent;  // per material: may_be_transparent
   bool m_any_transparent = false;
+  PixelFootprint m_footprint;
   std::vector<uint32_t> m_infinite_indices;
   LightSelection m_selection = LightSelection::automatic, m_resolved = LightSelection::power;
   bool m_triangle_solid_angle = true;

@@ -14,8 +14,8 @@
 // are decoded first and the result encoded back (alpha is never decoded), so
 // a level is what the image looks like from farther away, not darker, as
 // averaging sRGB codes would make it. Levels keep the image's pixel format
-// (an 8-bit image's levels are 8-bit, rounded to the nearest code), so a
-// pyramid costs a third of the image's memory.
+// (an 8-bit image's levels are 8-bit: the code nearest in linear light), so
+// a pyramid costs a third of the image's memory.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -33,6 +33,13 @@ namespace detail {
 inline std::vector<float> linear_values(const TextureImage& img, bool srgb) {
   const int nc = img.channels(), ncolour = (nc == 2 || nc == 4) ? nc - 1 : nc;
   std::vector<float> out(img.size());
+  if (img.format() == PixelFormat::u8) {  // 8-bit codes through tables: no pow per texel
+    const auto& dec = srgb_u8_decode_table();
+    const auto codes = img.u8_data();
+    for (size_t i = 0; i < codes.size(); ++i)
+      out[i] = srgb && int(i % size_t(nc)) < ncolour ? dec[codes[i]] : detail::unorm8_table[codes[i]];
+    return out;
+  }
   for (int y = 0; y < img.height(); ++y)
     for (int x = 0; x < img.width(); ++x)
       for (int c = 0; c < nc; ++c) {
@@ -78,7 +85,20 @@ inline TextureImage encode_level(const std::vector<float>& v, int w, int h, int 
   switch (format) {
     case PixelFormat::u8: {
       std::vector<uint8_t> d(v.size());
-      for (size_t i = 0; i < v.size(); ++i) d[i] = uint8_t(std::clamp(std::lround(value(i) * 255.f), 0L, 255L));
+      const auto& dec = srgb_u8_decode_table();
+      for (size_t i = 0; i < v.size(); ++i) {
+        if (srgb && int(i % size_t(nc)) < ncolour) {
+          // The code whose decoded value is nearest (the table is increasing): no pow per texel.
+          const float x = v[i];
+          const auto it = std::lower_bound(dec.begin(), dec.end(), x);
+          size_t c = size_t(it - dec.begin());
+          if (c == dec.size()) c = 255;
+          else if (c > 0 && x - dec[c - 1] < dec[c] - x) --c;
+          d[i] = uint8_t(c);
+        } else {
+          d[i] = uint8_t(std::clamp(std::lround(v[i] * 255.f), 0L, 255L));
+        }
+      }
       return TextureImage::from_u8(w, h, nc, std::move(d));
     }
     case PixelFormat::u16: {

@@ -29,6 +29,7 @@
 #include <optional>
 #include <string_view>
 #include <vector>
+#include "prism/attributes.hpp"
 #include "prism/math/vector.hpp"
 #include "prism/spectra/rgb.hpp"
 #include "prism/spectra/spectrum.hpp"
@@ -233,6 +234,9 @@ class ImageTexture {
   // footprint lookups honour by filtering the image alone.
   bool use_mipmaps = true;
   Float max_anisotropy = 8;  // EWA: the footprint's ellipse at most this eccentric
+  // The filter of evaluate(uv, footprint): bilinear (the default) is
+  // evaluate(uv), whatever the footprint.
+  TextureFilter filtering = TextureFilter::bilinear;
 
   // Builds the pyramid for this texture's encoding (O(texels), once per
   // image and encoding: share `mips` between textures of the same image).
@@ -252,7 +256,12 @@ class ImageTexture {
   // vectors span (widened by a texel, the minor axis stretched to at least
   // 1 / max_anisotropy of the major), on the two levels around the minor
   // axis' size. Allocates nothing and throws nothing.
-  RGBA evaluate(Point2f uv, TextureFootprint fp, TextureFilter f) const noexcept {
+  RGBA evaluate(Point2f uv, TextureFootprint fp) const noexcept {
+    if (filtering == TextureFilter::bilinear) [[likely]] return evaluate(uv);
+    return evaluate(uv, fp, filtering);
+  }
+  // Out of line: the default bilinear lookup above stays as small as evaluate(uv).
+  PRISM_NOINLINE RGBA evaluate(Point2f uv, TextureFootprint fp, TextureFilter f) const noexcept {
     const TextureImage* img = image.get();
     if (!img || img->empty()) return {RGB(1), 1};
     if (f == TextureFilter::bilinear) return evaluate(uv);
@@ -306,7 +315,7 @@ class ImageTexture {
   // non-finite coordinate (after the transform) is replaced by 0, so it gives
   // the lookup at 0 through the wrap mode; an empty image gives RGBA{RGB(1), 1}.
   // Allocates nothing and throws nothing.
-  RGBA evaluate(Point2f uv) const noexcept {
+  PRISM_FLATTEN RGBA evaluate(Point2f uv) const noexcept {
     const TextureImage* img = image.get();
     if (!img || img->empty()) return {RGB(1), 1};
     if (!transform.is_identity()) uv = transform.apply(uv);

@@ -60,8 +60,12 @@ inline TexRef ref(const tinygltf::Value* v, const char* key) {
 // Reads the file's materials; warnings and errors go through the Document.
 class Materials {
  public:
-  Materials(Document& doc, const Images& images, bool multiple_scattering)
-      : m_doc(doc), m_images(images), m_multiple_scattering(multiple_scattering) {}
+  // texture_filter: every material texture's ImageTexture::filtering; for
+  // trilinear and EWA each image gets its MIP pyramid (once per image and
+  // colour encoding).
+  Materials(Document& doc, const Images& images, bool multiple_scattering,
+            TextureFilter texture_filter = TextureFilter::bilinear)
+      : m_doc(doc), m_images(images), m_multiple_scattering(multiple_scattering), m_filter(texture_filter) {}
 
   // A number of an extension object (`ew` names it): finite, and in [0, 1]
   // when `unit`.
@@ -334,6 +338,17 @@ class Materials {
       t.wrap_s = wrap(s.wrapS, "wrapS");
       t.wrap_t = wrap(s.wrapT, "wrapT");
       t.filter = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST ? FilterMode::nearest : FilterMode::linear;
+      // minFilter NEAREST or LINEAR: no mipmaps (the footprint lookups filter the image alone).
+      t.use_mipmaps = !(s.minFilter == TINYGLTF_TEXTURE_FILTER_NEAREST || s.minFilter == TINYGLTF_TEXTURE_FILTER_LINEAR);
+    }
+    t.filtering = m_filter;
+    if ((m_filter == TextureFilter::trilinear || m_filter == TextureFilter::ewa) && t.use_mipmaps) {
+      auto& mips = m_mips[{source, srgb}];
+      if (!mips) {
+        t.build_mipmaps();
+        mips = t.mips;
+      }
+      t.mips = mips;
     }
     // KHR_texture_transform, on the textureInfo.
     const tinygltf::Value* tt = nullptr;
@@ -366,6 +381,8 @@ class Materials {
   Document& m_doc;
   const Images& m_images;
   bool m_multiple_scattering;
+  TextureFilter m_filter;
+  std::map<std::pair<int, bool>, std::shared_ptr<const std::vector<TextureImage>>> m_mips;  // (image, sRGB)
   bool m_warned_dispersion = false;
   std::map<int, std::optional<AreaEmission>> m_emission_cache;
 };

@@ -58,6 +58,13 @@ struct GltfOptions {
   // (MetalRoughMaterial::multiple_scattering; docs/microfacets.md). Off by default:
   // glTF's reference viewers render single scattering.
   bool multiple_scattering = false;
+  // How material textures filter over a pixel's footprint
+  // (ImageTexture::filtering; the footprint comes from the scene's
+  // PixelFootprint, Scene::set_pixel_footprint): bilinear, the default, as
+  // the sampler says whatever the footprint; trilinear and ewa build each
+  // image's MIP pyramid (a third more memory) unless its sampler's minFilter
+  // asks for no mipmaps.
+  TextureFilter texture_filter = TextureFilter::bilinear;
   // KHR_materials_variants: the name of the material variant to load; empty:
   // the file's default materials. A name the file does not define is an
   // error that lists the names it does.
@@ -539,7 +546,7 @@ class Loader {
   std::vector<Part> m_deformed_parts;   // mesh_parts with a deformation: the last node's
   PendingImages m_pending;
   Images m_images;
-  Materials m_materials{m_doc, m_images, m_opt.multiple_scattering};
+  Materials m_materials{m_doc, m_images, m_opt.multiple_scattering, m_opt.texture_filter};
   Animation m_animation{m_doc};
   GltfScene<S, Set> m_out;
   std::vector<size_t> m_mesh_tris;
