@@ -37,6 +37,7 @@ expect_error --time inf --shutter 1
 expect_error --light-sampler nope
 expect_error --instantiation nope
 expect_error --default-scene nope
+expect_error --texture-filter nope
 # glTF scenes: a one-triangle file written here, and broken ones.
 tri="$tmp/tri.gltf"
 cat > "$tri" <<'JSON'
@@ -115,6 +116,14 @@ out=$("$bin" "$tri" --width 8 --height 8 --spp 1 --quiet --light-sampler bvh --o
 if [ "$rc" != 0 ] || ! printf '%s\n' "$out" | grep -qF "bvh light selection"; then
   echo "FAIL: a glTF scene with --light-sampler bvh ($rc): $out"; fails=$((fails+1))
 else echo "ok: glTF with --light-sampler bvh"; fi
+# Texture filtering: every filter renders a glTF file; one without textures
+# renders the same image with each, bit for bit.
+for tf in point bilinear trilinear ewa; do
+  "$bin" "$tri" --width 8 --height 8 --spp 1 --quiet --texture-filter $tf --out "$tmp/tri_tf_$tf.pfm" >/dev/null 2>&1 \
+    || { echo "FAIL: --texture-filter $tf did not render"; fails=$((fails+1)); }
+  cmp -s "$tmp/tri_tf_$tf.pfm" "$tmp/tri_tf_point.pfm" || { echo "FAIL: --texture-filter $tf changed an untextured image"; fails=$((fails+1)); }
+done
+echo "ok: --texture-filter point, bilinear, trilinear, ewa"
 # The default image with auto selection is the power-selection image, bit for bit.
 cmp -s "$tmp/ls_auto.pfm" "$tmp/ls_power.pfm" || { echo "FAIL: auto differs from power on the default scene"; fails=$((fails+1)); }
 
