@@ -83,12 +83,12 @@ TEST_CASE("an orthographic pixel's footprint is its window width, stretched by t
 TEST_CASE("uv footprints solve dp = dpdu du + dpdv dv", "[cameras][footprint]") {
   const Vector3f dpdu(2, 0, 0), dpdv(1, 3, 0);
   const Vector3f dpdx = dpdu * 0.25f + dpdv * -0.5f, dpdy = dpdu * 0.125f + dpdv * 0.75f + Vector3f(0, 0, 5);
-  UVFootprint f = uv_footprint(dpdx, dpdy, dpdu, dpdv);
+  TextureFootprint f = uv_footprint(dpdx, dpdy, dpdu, dpdv);
   CHECK(f.dudx == Approx(0.25f).margin(1e-6));
   CHECK(f.dvdx == Approx(-0.5f).margin(1e-6));
   CHECK(f.dudy == Approx(0.125f).margin(1e-6));
   CHECK(f.dvdy == Approx(0.75f).margin(1e-6));
-  UVFootprint z = uv_footprint(dpdx, dpdy, dpdu, dpdu * 2.f);  // degenerate
+  TextureFootprint z = uv_footprint(dpdx, dpdy, dpdu, dpdu * 2.f);  // degenerate
   CHECK((z.dudx == 0 && z.dvdx == 0 && z.dudy == 0 && z.dvdy == 0));
 }
 

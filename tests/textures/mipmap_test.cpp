@@ -150,6 +150,11 @@ TEST_CASE("trilinear and EWA average a fine checkerboard away", "[textures][mipm
     CHECK(std::abs(t.evaluate(uv, fp, TextureFilter::trilinear).rgb.g - 0.5f) <= 1e-6f);
     CHECK(std::abs(t.evaluate(uv, fp, TextureFilter::ewa).rgb.g - 0.5f) <= 1e-6f);
   }
+  // A footprint far wider than the image (as near a horizon): the top level,
+  // the mean, without visiting the millions of texels its ellipse spans.
+  CHECK(std::abs(t.evaluate({0.3f, 0.6f}, TextureFootprint{1e8f, 0, 0, 1e7f}, TextureFilter::ewa).rgb.g - 0.5f) <= 1e-6f);
+  CHECK(std::abs(t.evaluate({0.3f, 0.6f}, TextureFootprint{1e8f, 0, 0, 1e7f}, TextureFilter::trilinear).rgb.g - 0.5f) <=
+        1e-6f);
   // Texel centres: bilinear and a point footprint give the texel itself.
   const Point2f centre{(3 + 0.5f) / 64, (0 + 0.5f) / 64};
   CHECK(t.evaluate(centre, TextureFootprint{4.f / 64, 0, 0, 4.f / 64}, TextureFilter::bilinear).rgb.g == 1);

@@ -350,10 +350,6 @@ class MetalRoughBxDF {
   }
 
   // The material under the coat: the sheen over the base (set_sheen).
-  struct Sheen {
-    Float e_o = 0, e_i = 0;  // the white lobe's albedo at mu_o and mu_i
-    Float p = 0;             // the probability of sampling the sheen at wo
-  };
   Float sheen_albedo(Float mu) const { return SheenAlbedoTable::get().E(mu, m_sheen_r); }
   Float sheen_probability(Float e_o) const {
     const Float s = m_sheen.average() * std::min(e_o, Float(1));
@@ -373,17 +369,30 @@ class MetalRoughBxDF {
     const Float v = charlie_sheen(m_sheen_r * m_sheen_r, wo, wi) / std::max({Float(1), e_o, e_i});
     return m_sheen * v;
   }
+  // The sheen layer's f and pdf at (wo, wi) (either may be null), given
+  // the white lobe's albedo e_o at mu_o and the sheen's sampling
+  // probability p there; wo.z and wi.z are not 0.
+  void inner_eval_pdf(const Vector3f& wo, const Vector3f& wi, TransportMode mode, Float e_o, Float p, S* f,
+                      Float* pdf) const {
+    if (f) {
+      const Float e_i = sheen_albedo(std::abs(wi.z));
+      *f = base_eval(wo, wi, mode) * sheen_scale(e_o, e_i) + sheen_f(wo, wi, e_o, e_i);
+    }
+    if (pdf) *pdf = (wo.z * wi.z > 0 ? p * inv_2pi : 0) + (1 - p) * base_pdf(wo, wi, mode);
+  }
   S inner_eval(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (!(m_sheen_max > 0)) return base_eval(wo, wi, mode);
     if (wo.z == 0 || wi.z == 0) return S{};
-    const Float e_o = sheen_albedo(std::abs(wo.z)), e_i = sheen_albedo(std::abs(wi.z));
-    return base_eval(wo, wi, mode) * sheen_scale(e_o, e_i) + sheen_f(wo, wi, e_o, e_i);
+    S f;
+    inner_eval_pdf(wo, wi, mode, sheen_albedo(std::abs(wo.z)), 0, &f, nullptr);
+    return f;
   }
   Float inner_pdf(Vector3f wo, Vector3f wi, TransportMode mode) const {
     if (!(m_sheen_max > 0)) return base_pdf(wo, wi, mode);
     if (wo.z == 0 || wi.z == 0) return 0;
-    const Float p = sheen_probability(sheen_albedo(std::abs(wo.z)));
-    return (wo.z * wi.z > 0 ? p * inv_2pi : 0) + (1 - p) * base_pdf(wo, wi, mode);
+    Float pdf;
+    inner_eval_pdf(wo, wi, mode, 0, sheen_probability(sheen_albedo(std::abs(wo.z))), nullptr, &pdf);
+    return pdf;
   }
   std::optional<BSDFSample<S>> inner_sample(Vector3f wo, Float uc, Point2f u, TransportMode mode) const {
     if (!(m_sheen_max > 0)) return base_sample(wo, uc, u, mode);
@@ -394,9 +403,11 @@ class MetalRoughBxDF {
       Vector3f wi = sample_uniform_hemisphere(u);
       if (wo.z < 0) wi.z = -wi.z;
       if (wi.z == 0) return std::nullopt;
-      const Float pdf = inner_pdf(wo, wi, mode);
+      S f;
+      Float pdf;
+      inner_eval_pdf(wo, wi, mode, e_o, p, &f, &pdf);
       if (!(pdf > 0)) return std::nullopt;
-      return BSDFSample<S>{inner_eval(wo, wi, mode), wi, pdf, BxDFFlags::glossy_reflection};
+      return BSDFSample<S>{f, wi, pdf, BxDFFlags::glossy_reflection};
     }
     auto bs = base_sample(wo, std::min((uc - p) / (1 - p), one_minus_epsilon), u, mode);
     if (!bs) return std::nullopt;
@@ -405,8 +416,8 @@ class MetalRoughBxDF {
       bs->pdf *= 1 - p;
       return bs;
     }
-    bs->f = inner_eval(wo, bs->wi, mode);
-    bs->pdf = inner_pdf(wo, bs->wi, mode);
+    if (bs->wi.z == 0) return std::nullopt;
+    inner_eval_pdf(wo, bs->wi, mode, e_o, p, &bs->f, &bs->pdf);
     if (!(bs->pdf > 0)) return std::nullopt;
     return bs;
   }

@@ -25,6 +25,7 @@
 #include "prism/cameras/orthographic.hpp"
 #include "prism/cameras/perspective.hpp"
 #include "prism/math/transform.hpp"
+#include "prism/textures/texture.hpp"
 
 namespace prism {
 
@@ -88,10 +89,7 @@ class PixelFootprint {
 // dp/dv: the least-squares solution of dp = dp/du du + dp/dv dv (the 2 x 2
 // normal equations); zero where dp/du and dp/dv are degenerate, each value
 // clamped to +-1e8.
-struct UVFootprint {
-  Float dudx = 0, dvdx = 0, dudy = 0, dvdy = 0;
-};
-inline UVFootprint uv_footprint(const Vector3f& dpdx, const Vector3f& dpdy, const Vector3f& dpdu,
+inline TextureFootprint uv_footprint(const Vector3f& dpdx, const Vector3f& dpdy, const Vector3f& dpdu,
                                 const Vector3f& dpdv) {
   const double a = dot(dpdu, dpdu), b = dot(dpdu, dpdv), c = dot(dpdv, dpdv);
   const double det = a * c - b * b;
@@ -102,7 +100,7 @@ inline UVFootprint uv_footprint(const Vector3f& dpdx, const Vector3f& dpdy, cons
     *du = std::isfinite(u) ? Float(std::clamp(u, -1e8, 1e8)) : Float(0);
     *dv = std::isfinite(v) ? Float(std::clamp(v, -1e8, 1e8)) : Float(0);
   };
-  UVFootprint f;
+  TextureFootprint f;
   solve(dpdx, &f.dudx, &f.dvdx);
   solve(dpdy, &f.dudy, &f.dvdy);
   return f;

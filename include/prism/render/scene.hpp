@@ -345,7 +345,7 @@ class Scene {
     if (m_footprint.active()) {
       Vector3f dpdx, dpdy;
       m_footprint.dp(si.p, si.n, &dpdx, &dpdy);
-      const UVFootprint f = uv_footprint(dpdx, dpdy, si.dpdu, si.dpdv);
+      const TextureFootprint f = uv_footprint(dpdx, dpdy, si.dpdu, si.dpdv);
       si.dudx = f.dudx;
       si.dvdx = f.dvdx;
       si.dudy = f.dudy;

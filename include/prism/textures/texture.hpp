@@ -279,13 +279,8 @@ class ImageTexture {
     if (f == TextureFilter::trilinear || !(std::min(lx, ly) > 0)) {
       const Float width = std::max(lx, ly);
       if (!(width > 1) || n == 1 || !std::isfinite(width)) return lookup_level(0, u, v, filter);
-      const Float l = std::min(std::log2(width), Float(n - 1));
-      const int l0 = std::min(int(l), n - 1), l1 = std::min(l0 + 1, n - 1);
-      const Float t = l - Float(l0);
-      RGBA a = lookup_level(l0, u, v, FilterMode::linear);
-      if (t == 0 || l1 == l0) return a;
-      RGBA b = lookup_level(l1, u, v, FilterMode::linear);
-      return {a.rgb * (1 - t) + b.rgb * t, a.a * (1 - t) + b.a * t};
+      return blend_levels(std::min(std::log2(width), Float(n - 1)),
+                          [&](int k) { return lookup_level(k, u, v, FilterMode::linear); });
     }
     // EWA: major axis a, minor axis b (uv units), b clamped to |a| / max_anisotropy.
     Float au = fp.dudx, av = fp.dvdx, bu = fp.dudy, bv = fp.dvdy;
@@ -302,13 +297,11 @@ class ImageTexture {
       lb *= k;
     }
     if (!std::isfinite(la)) return lookup_level(0, u, v, filter);
-    const Float l = std::clamp(std::log2(std::max(lb, Float(1e-8))), Float(0), Float(n - 1));
-    const int l0 = std::min(int(l), n - 1), l1 = std::min(l0 + 1, n - 1);
-    const Float t = l - Float(l0);
-    RGBA a = ewa_level(l0, u, v, au, av, bu, bv);
-    if (t == 0 || l1 == l0) return a;
-    RGBA b = ewa_level(l1, u, v, au, av, bu, bv);
-    return {a.rgb * (1 - t) + b.rgb * t, a.a * (1 - t) + b.a * t};
+    // A minor axis wider than the image: the whole image, the top level
+    // (its ellipse there could span millions of texels).
+    if (!(lb < Float(int64_t(1) << (n - 1)))) return lookup_level(n - 1, u, v, FilterMode::linear);
+    return blend_levels(std::clamp(std::log2(std::max(lb, Float(1e-8))), Float(0), Float(n - 1)),
+                        [&](int k) { return ewa_level(k, u, v, au, av, bu, bv); });
   }
 
   // Filtered RGBA (linear values) at uv, the transform applied first. A
@@ -321,13 +314,7 @@ class ImageTexture {
     if (!transform.is_identity()) uv = transform.apply(uv);
     const Float u = std::isfinite(uv.x) ? uv.x : Float(0);
     const Float v = std::isfinite(uv.y) ? uv.y : Float(0);
-    const float* table = encoding == ColorEncoding::srgb ? srgb_u8_decode_table().data() : nullptr;
-    switch (img->format()) {
-      case PixelFormat::u8: return lookup(img->u8_data().data(), *img, u, v, table);
-      case PixelFormat::u16: return lookup(img->u16_data().data(), *img, u, v, table);
-      case PixelFormat::f32: return lookup(img->f32_data().data(), *img, u, v, table);
-    }
-    return {RGB(1), 1};
+    return lookup_level(0, u, v, filter);
   }
 
   // The mean of evaluate over the unit uv square, approximated by the mean
@@ -346,6 +333,17 @@ class ImageTexture {
   }
 
  private:
+  // The lookups at the levels around the fractional level l, blended.
+  template <class Lookup>
+  RGBA blend_levels(Float l, Lookup&& at) const noexcept {
+    const int n = levels();
+    const int l0 = std::min(int(l), n - 1), l1 = std::min(l0 + 1, n - 1);
+    const Float t = l - Float(l0);
+    RGBA a = at(l0);
+    if (t == 0 || l1 == l0) return a;
+    RGBA b = at(l1);
+    return {a.rgb * (1 - t) + b.rgb * t, a.a * (1 - t) + b.a * t};
+  }
   // The sampler's lookup (nearest or bilinear) on level k.
   RGBA lookup_level(int k, Float u, Float v, FilterMode mode) const noexcept {
     const TextureImage& img = level(k);
@@ -413,10 +411,6 @@ class ImageTexture {
     return detail::expand_channels(m, nc);
   }
 
-  template <class T>
-  RGBA lookup(const T* p, const TextureImage& img, Float u, Float v, const float* table) const noexcept {
-    return lookup(p, img, u, v, table, filter);
-  }
   template <class T>
   RGBA lookup(const T* p, const TextureImage& img, Float u, Float v, const float* table,
               FilterMode mode) const noexcept {
