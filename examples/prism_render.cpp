@@ -125,6 +125,7 @@ struct Job {
   int camera = -1;
   double time = 0;
   double shutter = 0;  // seconds the shutter stays open from `time` (motion blur)
+  int deformation_keys = 5;  // glTF skinned and morphing meshes: vertex keys over the shutter
   prism::TextureFilter texture_filter = prism::TextureFilter::bilinear;
   bool multiple_scattering = false;  // glTF materials: energy compensation (GltfOptions)
   std::string variant;  // glTF KHR_materials_variants: the variant to load (empty: the defaults)
@@ -256,8 +257,11 @@ int render_and_write(const Job& job, const char* model, const SceneT& scene, Cam
   std::string shutter_note;
   if (job.shutter > 0) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, ", shutter [%g, %g], %zu moving instances%s", job.time, job.time + job.shutter,
-                  scene.accel().motions().size(), camera.placement().is_moving() ? ", moving camera" : "");
+    size_t deforming = 0;
+    for (const auto& in : scene.accel().instances()) deforming += in.kind == prism::Instance::Kind::deforming_mesh;
+    std::snprintf(buf, sizeof buf, ", shutter [%g, %g], %zu moving instances, %zu deforming%s", job.time,
+                  job.time + job.shutter, scene.accel().motions().size(), deforming,
+                  camera.placement().is_moving() ? ", moving camera" : "");
     shutter_note = buf;
   }
   std::string lights = std::string(prism::light_selection_name(scene.light_selection())) + " light selection";
@@ -398,6 +402,7 @@ int run_gltf_file(const Job& job, const char* model, const std::string& path) {
   prism::GltfOptions gopt;
   gopt.time = job.time;
   gopt.shutter = job.shutter;
+  gopt.deformation_keys = job.deformation_keys;
   gopt.multiple_scattering = job.multiple_scattering;
   gopt.variant = job.variant;
   gopt.texture_filter = job.texture_filter;
@@ -465,6 +470,10 @@ int run(int argc, char** argv) {
                  "become moving instances (a moving camera node blurs the whole view), and the default scene's "
                  "tall box moves (0: no blur)")
       ->check(CLI::Range(0.0, 1e30));
+  app.add_option("--deformation-keys", job.deformation_keys,
+                 "Deformation blur: glTF skinned and morphing meshes are posed at this many times over the "
+                 "shutter, their vertices moving in straight lines between them (default 5)")
+      ->check(CLI::Range(2, 1024));
   app.add_option("--env", job.env,
                  "Equirectangular environment map (.hdr, .exr or .pfm) lighting a glTF scene; 'none': no "
                  "environment (default: a white one only for a scene without any light)");

@@ -64,6 +64,7 @@ charlie_D_power | include/prism/bxdfs/sheen.hpp | std::pow(sin2, Float(0.5) * in
 thin_film_phase | include/prism/bxdfs/thin_film.hpp | (4 * 3.14159265358979323846 * n2 | (2 * 3.14159265358979323846 * n2 | prism_test_bxdfs
 skin_no_inverse_bind | include/prism/io/gltf/deform.hpp | out[j] = world(skin.joints[j]) * inv_bind; | out[j] = world(skin.joints[j]); | prism_test_gltf
 skin_weights_unnormalised | include/prism/io/gltf/deform.hpp | double w = std::max(sets[s].second[4 * i + c], 0.0) / sum; | double w = std::max(sets[s].second[4 * i + c], 0.0); | prism_test_gltf
+deform_blend_eased | include/prism/accel/deforming_mesh.hpp | out->v[r][l] = p.a.v[r][l] + f * p.d.v[r][l]; | out->v[r][l] = p.a.v[r][l] + f * f * p.d.v[r][l]; | prism_test_accel
 kulla_conty_fms | include/prism/bxdfs/ms_compensation.hpp | return fa * fa * e_avg / (1 - fa * (1 - e_avg)); | return fa * e_avg / (1 - fa * (1 - e_avg)); | prism_test_reference prism_test_bxdfs
 lambert_no_pi | include/prism/bxdfs/diffuse.hpp | S eval(Vector3f wo, Vector3f wi, TransportMode) const {@@    if (!same_hemisphere(wo, wi)) return S{};@@    return m_r * inv_pi; | S eval(Vector3f wo, Vector3f wi, TransportMode) const {@@    if (!same_hemisphere(wo, wi)) return S{};@@    return m_r; | prism_test_reference prism_test_bxdfs
 oren_nayar_A_B_swapped | examples/oren_nayar.hpp | if (s <= 0) return m_a + m_b * s; | if (s <= 0) return m_b + m_a * s; | prism_test_reference prism_test_bxdfs

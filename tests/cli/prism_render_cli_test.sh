@@ -38,6 +38,7 @@ expect_error --light-sampler nope
 expect_error --instantiation nope
 expect_error --default-scene nope
 expect_error --texture-filter nope
+expect_error --deformation-keys 1
 # glTF scenes: a one-triangle file written here, and broken ones.
 tri="$tmp/tri.gltf"
 cat > "$tri" <<'JSON'

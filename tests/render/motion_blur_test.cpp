@@ -43,19 +43,31 @@ struct Result {
   int checked = 0, failures = 0, partial = 0;
 };
 
-// camera_moves: the square stays at kStart and the camera slides by
+// What moves. camera: the square stays at kStart and the camera slides by
 // -kTravel over the motion instead: the same picture in the camera's frame,
 // so the same expected coverage (the pixel extents below are the camera's
-// at time 0, where both set-ups coincide).
-Result render_and_compare(Shutter shutter, SamplerKind kind, int spp, bool camera_moves = false) {
+// at time 0, where both set-ups coincide). vertices: the square's vertices
+// carry the slide as three keys (deformation blur), the same motion.
+enum class Mover { instance, camera, vertices };
+Result render_and_compare(Shutter shutter, SamplerKind kind, int spp, Mover mover = Mover::instance) {
+  const bool camera_moves = mover == Mover::camera;
   Scene<RGB> scene;
   uint32_t grey = scene.add_material(DiffuseMaterial{RGB(0.5f)});
-  uint32_t mesh = scene.add_mesh(square());
-  if (camera_moves)
-    scene.add_instance(mesh, grey, translate({kStart, 0, 0}));
-  else
-    scene.add_instance(mesh, grey,
+  if (mover == Mover::vertices) {
+    VertexMotion keys;
+    keys.time0 = 0;
+    keys.time1 = 1;
+    for (int k = 0; k < 3; ++k) {
+      keys.positions.push_back(square().positions);
+      for (auto& p : keys.positions.back()) p.x += kStart + kTravel * Float(k) / 2;
+    }
+    scene.add_instance(scene.add_deforming_mesh(square(), keys), grey);
+  } else if (camera_moves) {
+    scene.add_instance(scene.add_mesh(square()), grey, translate({kStart, 0, 0}));
+  } else {
+    scene.add_instance(scene.add_mesh(square()), grey,
                        AnimatedTransform(TransformKey::trs({kStart, 0, 0}), TransformKey::trs({kStart + kTravel, 0, 0}), 0, 1));
+  }
   scene.add_light(UniformInfiniteLight<RGB>(RGB(1)));
   scene.build();
   const int w = kW, h = kH;
@@ -118,18 +130,38 @@ TEST_CASE("a sliding square's mean coverage equals the analytic fraction", "[ren
   CHECK(half.failures == 0);
 }
 
-// Camera motion blur: the camera sliding the other way over the still square
-// gives the same coverage, exactly as predicted, and a closed shutter
-// freezes the camera where it is at that time.
-TEST_CASE("a moving camera over a still square blurs as the square moving the other way", "[render][motion][camera]") {
-  Result r = render_and_compare(Shutter{0, 1}, SamplerKind::independent, 4096, true);
+// The blur over the whole shutter matches the analytic coverage, and a
+// closed shutter freezes whatever moves where it is at that time.
+static void check_blur_and_freeze(Mover mover) {
+  Result r = render_and_compare(Shutter{0, 1}, SamplerKind::independent, 4096, mover);
   CHECK(r.failures == 0);
   CHECK(r.partial >= 20);
   for (Float t : {0.f, 0.3f, 1.f}) {
-    Result frozen = render_and_compare(Shutter{t, t}, SamplerKind::independent, 64, true);
+    Result frozen = render_and_compare(Shutter{t, t}, SamplerKind::independent, 64, mover);
     CHECK(frozen.failures == 0);
     CHECK(frozen.partial <= 4);
   }
+}
+
+// Camera motion blur: the camera sliding the other way over the still square
+// gives the same coverage, exactly as predicted.
+TEST_CASE("a moving camera over a still square blurs as the square moving the other way", "[render][motion][camera]") {
+  check_blur_and_freeze(Mover::camera);
+}
+
+// Deformation blur: the slide given as vertex keys blurs as the sliding
+// instance does.
+TEST_CASE("a square whose vertices slide blurs as the sliding instance", "[render][motion][deform]") {
+  check_blur_and_freeze(Mover::vertices);
+}
+
+TEST_CASE("a deforming mesh cannot emit", "[render][motion][deform]") {
+  Scene<RGB> scene;
+  VertexMotion keys;
+  keys.positions = {square().positions, square().positions};
+  uint32_t mesh = scene.add_deforming_mesh(square(), keys);
+  scene.add_instance(mesh, scene.add_material(DiffuseMaterial{}), Transform{}, AreaEmission{RGB(1)});
+  CHECK_THROWS_WITH(scene.build(), Catch::Contains("deforming mesh cannot emit"));
 }
 
 namespace {

@@ -10,11 +10,17 @@
 // uses its interval's tree: one segment is the classic interval bounds, more
 // segments trade memory and build time for tighter boxes when objects move
 // far (docs/motion_blur.md gives the measurement behind the default).
+//
+// Deformation blur: a mesh added with vertex keys (add_deforming_mesh,
+// accel/deforming_mesh.hpp) is met where its vertices are at the ray's time;
+// its instances may be transformed and move too. The top level's boxes
+// enclose it over each segment's time interval.
 #pragma once
 #include <optional>
 #include <string>
 #include <vector>
 #include "prism/accel/bvh.hpp"
+#include "prism/accel/deforming_mesh.hpp"
 #include "prism/accel/presplit.hpp"
 #include "prism/accel/triangle_packet.hpp"
 #include "prism/attributes.hpp"
@@ -251,7 +257,8 @@ class MeshAccel {
 };
 
 struct Instance {
-  enum class Kind : uint8_t { mesh, sphere };
+  // deforming_mesh: a mesh added with vertex keys (SceneAccel::add_deforming_mesh).
+  enum class Kind : uint8_t { mesh, sphere, deforming_mesh };
   Kind kind = Kind::mesh;
   uint32_t geometry = 0;      // mesh or sphere index
   Transform object_to_world;  // meshes only; spheres live in world space
@@ -272,8 +279,26 @@ class SceneAccel {
     m_meshes.push_back(std::move(mesh));
     return uint32_t(m_meshes.size() - 1);
   }
+  // A mesh whose vertices move during the shutter: `motion` holds its
+  // vertex keys (the mesh's own positions are replaced by the first key).
+  // Its instances meet rays where the vertices are at the ray's time.
+  // Throws prism::Error if the keys do not fit the mesh.
+  uint32_t add_deforming_mesh(TriangleMesh mesh, VertexMotion motion) {
+    motion.validate(mesh.positions.size());
+    mesh.positions = motion.positions[0];
+    m_meshes.push_back(std::move(mesh));
+    m_deform_of.resize(m_meshes.size(), -1);
+    m_deform_of.back() = int32_t(m_vertex_motions.size());
+    m_vertex_motions.push_back(std::move(motion));
+    return uint32_t(m_meshes.size() - 1);
+  }
+  // True if mesh `mesh` was added with vertex keys.
+  bool is_deforming(uint32_t mesh) const { return mesh < m_deform_of.size() && m_deform_of[mesh] >= 0; }
+  // Its vertex keys (for a mesh with is_deforming(mesh)).
+  const VertexMotion& vertex_motion(uint32_t mesh) const { return m_vertex_motions[size_t(m_deform_of[mesh])]; }
+
   uint32_t add_mesh_instance(uint32_t mesh, const Transform& object_to_world = {}) {
-    m_instances.push_back({Instance::Kind::mesh, mesh, object_to_world, object_to_world.is_identity(),
+    m_instances.push_back({kind_of(mesh), mesh, object_to_world, object_to_world.is_identity(),
                            object_to_world.swaps_handedness()});
     return uint32_t(m_instances.size() - 1);
   }
@@ -283,7 +308,7 @@ class SceneAccel {
     if (!motion.is_moving()) return add_mesh_instance(mesh, motion.at(motion.start_time()));
     m_motions.push_back(motion);
     Transform t0 = motion.at(motion.start_time());
-    m_instances.push_back({Instance::Kind::mesh, mesh, t0, false, motion.swaps_handedness(),
+    m_instances.push_back({kind_of(mesh), mesh, t0, false, motion.swaps_handedness(),
                            int32_t(m_motions.size() - 1)});
     return uint32_t(m_instances.size() - 1);
   }
@@ -298,9 +323,14 @@ class SceneAccel {
   const std::vector<Instance>& instances() const { return m_instances; }
   const std::vector<MeshAccel>& mesh_accels() const { return m_mesh_accels; }
   const std::vector<AnimatedTransform>& motions() const { return m_motions; }
+  // The deforming meshes' structures, after build(); deforming_accel(mesh)
+  // for a mesh with is_deforming(mesh).
+  const std::vector<DeformingMeshAccel>& deforming_mesh_accels() const { return m_deform_accels; }
+  const DeformingMeshAccel& deforming_accel(uint32_t mesh) const { return m_deform_accels[size_t(m_deform_of[mesh])]; }
   // Everything the scene covers at any time.
   Bounds3f bounds() const { return m_bounds; }
-  bool has_motion() const { return !m_motions.empty(); }
+  // Something moves or deforms during the shutter.
+  bool has_motion() const { return !m_motions.empty() || !m_vertex_motions.empty(); }
   int motion_segments() const { return int(m_tops.size()); }
 
   // The world transform of an instance at a time (its fixed one if it does not move).
@@ -317,7 +347,18 @@ class SceneAccel {
   void build(const BVHBuildOptions& opt = {}) {
     m_mesh_accels.clear();
     m_mesh_accels.reserve(m_meshes.size());
-    for (const auto& m : m_meshes) m_mesh_accels.emplace_back(m, opt);
+    m_deform_of.resize(m_meshes.size(), -1);
+    m_deform_accels.clear();
+    m_deform_accels.reserve(m_vertex_motions.size());
+    for (size_t i = 0; i < m_meshes.size(); ++i) {
+      if (m_deform_of[i] >= 0) {
+        // A deforming mesh's still MeshAccel stays empty: rays use its keys.
+        m_mesh_accels.emplace_back();
+        m_deform_accels.emplace_back(m_meshes[i], m_vertex_motions[size_t(m_deform_of[i])], opt);
+      } else {
+        m_mesh_accels.emplace_back(m_meshes[i], opt);
+      }
+    }
     build_top(opt);
   }
 
@@ -327,6 +368,8 @@ class SceneAccel {
   void refit_mesh(uint32_t mesh, std::vector<Point3f> positions) {
     if (mesh >= m_meshes.size() || m_mesh_accels.size() != m_meshes.size())
       throw Error("SceneAccel::refit_mesh: mesh " + std::to_string(mesh) + " does not exist or build() has not run");
+    if (is_deforming(mesh))
+      throw Error("SceneAccel::refit_mesh: mesh " + std::to_string(mesh) + " deforms by vertex keys: add it anew");
     if (positions.size() != m_meshes[mesh].positions.size())
       throw Error("SceneAccel::refit_mesh: mesh " + std::to_string(mesh) + " has " +
                   std::to_string(m_meshes[mesh].positions.size()) + " vertices, got " +
@@ -352,6 +395,20 @@ class SceneAccel {
         m_time1 = std::max(m_time1, m.end_time());
       }
     }
+    // Deforming meshes: their instances' boxes over each interval. (One
+    // segment per top-level tree when only meshes deform: their own
+    // segments already follow the keys.)
+    for (const Instance& in : m_instances)
+      if (in.kind == Instance::Kind::deforming_mesh) {
+        const VertexMotion& vm = m_vertex_motions[size_t(m_deform_of[in.geometry])];
+        if (m_motions.empty() && segments == 1) {
+          segments = std::clamp(motion_segments > 0 ? motion_segments : kDefaultMotionSegments, 1, 1024);
+          m_time0 = infinity;
+          m_time1 = -infinity;
+        }
+        m_time0 = std::min(m_time0, vm.time0);
+        m_time1 = std::max(m_time1, vm.time1);
+      }
     BVHBuildOptions top = opt;
     top.max_leaf_size = 1;
     m_tops.clear();
@@ -362,13 +419,18 @@ class SceneAccel {
       Float tb = k + 1 == segments ? m_time1 : m_time0 + (m_time1 - m_time0) * Float(k + 1) / Float(segments);
       for (size_t i = 0; i < m_instances.size(); ++i) {
         const Instance& in = m_instances[i];
-        if (in.kind == Instance::Kind::sphere)
+        if (in.kind == Instance::Kind::sphere) {
           b[i] = m_spheres[in.geometry].bounds();
-        else if (in.motion >= 0)
-          b[i] = m_motions[size_t(in.motion)].motion_bounds(m_mesh_accels[in.geometry].bounds(), ta, tb);
+          continue;
+        }
+        // The object-space box over [ta, tb] (a segment's end time belongs
+        // to both segments, so each tree covers its closed interval).
+        Bounds3f object = in.kind == Instance::Kind::deforming_mesh ? deforming_accel(in.geometry).bounds(ta, tb)
+                                                                   : m_mesh_accels[in.geometry].bounds();
+        if (in.motion >= 0)
+          b[i] = m_motions[size_t(in.motion)].motion_bounds(object, ta, tb);
         else
-          b[i] = in.identity ? m_mesh_accels[in.geometry].bounds()
-                             : in.object_to_world(m_mesh_accels[in.geometry].bounds());
+          b[i] = in.identity ? object : in.object_to_world(object);
       }
       m_tops.push_back(BVH::build(b, top));
       m_bounds = union_bounds(m_bounds, m_tops.back().bounds());
@@ -431,7 +493,18 @@ class SceneAccel {
       uint32_t tri;
       Float t_local = tm;
       bool h;
-      if (in.identity) {
+      if (in.kind == Instance::Kind::deforming_mesh) {
+        const DeformingMeshAccel& dm = deforming_accel(in.geometry);
+        if (in.identity) {
+          h = dm.intersect(ray.o, ray.d, ray.time, &t_local, &th, &tri);
+        } else {
+          Float dt;
+          Ray r = transform_ray(inverse(instance_transform(in, ray.time)), ray, &dt);
+          Float t_obj = tm - dt;
+          h = dm.intersect(r.o, r.d, ray.time, &t_obj, &th, &tri);
+          t_local = t_obj + dt;
+        }
+      } else if (in.identity) {
         h = m_mesh_accels[in.geometry].intersect(ray.o, ray.d, wr, &t_local, &th, &tri);
       } else {
         Float dt;
@@ -467,6 +540,13 @@ class SceneAccel {
         return intersect_sphere(m_spheres[in.geometry], ray, tm).has_value();
       }
       uint32_t skip = inst_id == skip_instance ? skip_primitive : UINT32_MAX;
+      if (in.kind == Instance::Kind::deforming_mesh) {
+        const DeformingMeshAccel& dm = deforming_accel(in.geometry);
+        if (in.identity) return dm.occluded(ray.o, ray.d, ray.time, tm, skip);
+        Float dt;
+        Ray r = transform_ray(inverse(instance_transform(in, ray.time)), ray, &dt);
+        return dm.occluded(r.o, r.d, ray.time, tm - dt, skip);
+      }
       if (in.identity) return m_mesh_accels[in.geometry].occluded(ray.o, ray.d, wr, tm, skip);
       Float dt;
       Ray r = transform_ray(inverse(in.motion < 0 ? in.object_to_world : m_motions[size_t(in.motion)].at(ray.time)),
@@ -490,7 +570,10 @@ class SceneAccel {
       sphere_interaction(m_spheres[in.geometry], ray, SphereHit{h.t}, &si);
       return si;
     }
-    triangle_interaction(m_meshes[in.geometry], h.primitive, TriangleHit{h.t, h.b0, h.b1, h.b2}, &si);
+    if (in.kind == Instance::Kind::deforming_mesh)
+      deforming_interaction(in.geometry, h, ray.time, &si);
+    else
+      triangle_interaction(m_meshes[in.geometry], h.primitive, TriangleHit{h.t, h.b0, h.b1, h.b2}, &si);
     if (!in.identity) {
       Transform moved;
       if (in.motion >= 0) moved = m_motions[size_t(in.motion)].at(ray.time);
@@ -510,6 +593,34 @@ class SceneAccel {
   }
 
  private:
+  Instance::Kind kind_of(uint32_t mesh) const {
+    return is_deforming(mesh) ? Instance::Kind::deforming_mesh : Instance::Kind::mesh;
+  }
+  // A deforming mesh's hit: its vertices, normals and tangents blended to the
+  // ray's time as the traversal blended the positions.
+  void deforming_interaction(uint32_t mesh, const Hit& h, Float time, SurfaceInteraction* si) const {
+    const TriangleMesh& m = m_meshes[mesh];
+    const VertexMotion& vm = m_vertex_motions[size_t(m_deform_of[mesh])];
+    auto [k, f] = vm.segment(time);
+    Point3f p[3];
+    Normal3f n[3];
+    std::array<Float, 4> tg[3];
+    for (int j = 0; j < 3; ++j) {
+      uint32_t v = m.indices[3 * h.primitive + uint32_t(j)];
+      p[j] = lerp_key(vm.positions[k][v], vm.positions[k + 1][v], f);
+      if (!vm.normals.empty()) {
+        const Normal3f &a = vm.normals[k][v], &b = vm.normals[k + 1][v];
+        n[j] = Normal3f(lerp_key(a.x, b.x, f), lerp_key(a.y, b.y, f), lerp_key(a.z, b.z, f));
+      }
+      if (!vm.tangents.empty()) {
+        const auto &a = vm.tangents[k][v], &b = vm.tangents[k + 1][v];
+        tg[j] = {lerp_key(a[0], b[0], f), lerp_key(a[1], b[1], f), lerp_key(a[2], b[2], f), vm.tangents[0][v][3]};
+      }
+    }
+    triangle_interaction(m, h.primitive, TriangleHit{h.t, h.b0, h.b1, h.b2}, si, p,
+                         vm.normals.empty() ? nullptr : n, vm.tangents.empty() ? nullptr : tg);
+  }
+
   // The top-level tree of the motion segment holding `time` (times outside
   // the motion's range use the end segments: every instance is clamped too).
   const BVH& top_for(Float time) const {
@@ -524,6 +635,9 @@ class SceneAccel {
   std::vector<Sphere> m_spheres;
   std::vector<Instance> m_instances;
   std::vector<AnimatedTransform> m_motions;
+  std::vector<VertexMotion> m_vertex_motions;       // the deforming meshes' keys
+  std::vector<int32_t> m_deform_of;                 // per mesh: its index in the two below, or -1
+  std::vector<DeformingMeshAccel> m_deform_accels;  // built by build()
   std::vector<BVH> m_tops{1};  // one per motion segment
   Bounds3f m_bounds;
   Float m_time0 = 0, m_time1 = 0, m_time_scale = 0;

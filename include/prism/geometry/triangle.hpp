@@ -189,10 +189,16 @@ inline std::optional<TriangleHit> intersect_triangle(const Point3f& o, const Ray
 // Geometry of a hit on a triangle (object space): point with error bound,
 // geometric normal from the winding (p1 - p0) x (p2 - p0), shading normal from
 // interpolated vertex normals when present, uv and dpdu.
+// The vertices may be given instead of read from the mesh (a deforming
+// mesh's at the ray's time, accel/deforming_mesh.hpp): `positions`, and
+// `normals` and `tangents` (three each) where not null; the rest comes from
+// the mesh.
 inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const TriangleHit& h,
-                                 SurfaceInteraction* si) {
+                                 SurfaceInteraction* si, const Point3f* positions,
+                                 const Normal3f* normals = nullptr,
+                                 const std::array<Float, 4>* tangents = nullptr) {
   uint32_t i0 = mesh.indices[3 * tri], i1 = mesh.indices[3 * tri + 1], i2 = mesh.indices[3 * tri + 2];
-  const Point3f &p0 = mesh.positions[i0], &p1 = mesh.positions[i1], &p2 = mesh.positions[i2];
+  const Point3f &p0 = positions[0], &p1 = positions[1], &p2 = positions[2];
   si->p = Point3f(Vector3f(p0) * h.b0 + Vector3f(p1) * h.b1 + Vector3f(p2) * h.b2);
   si->p_error = (abs(Vector3f(p0) * h.b0) + abs(Vector3f(p1) * h.b1) + abs(Vector3f(p2) * h.b2)) * gamma(7);
 
@@ -219,8 +225,9 @@ inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const T
   si->dpdu = dpdu;
   si->dpdv = dpdv;
   if (!mesh.uvs1.empty()) si->uv1 = mesh.uvs1[i0] * h.b0 + mesh.uvs1[i1] * h.b1 + mesh.uvs1[i2] * h.b2;
-  if (!mesh.tangents.empty()) {
-    const auto &t0 = mesh.tangents[i0], &t1 = mesh.tangents[i1], &t2 = mesh.tangents[i2];
+  if (tangents || !mesh.tangents.empty()) {
+    const auto &t0 = tangents ? tangents[0] : mesh.tangents[i0], &t1 = tangents ? tangents[1] : mesh.tangents[i1],
+               &t2 = tangents ? tangents[2] : mesh.tangents[i2];
     si->tangent = Vector3f(t0[0], t0[1], t0[2]) * h.b0 + Vector3f(t1[0], t1[1], t1[2]) * h.b1 +
                   Vector3f(t2[0], t2[1], t2[2]) * h.b2;
     si->tangent_w = t0[3] < 0 ? Float(-1) : Float(1);
@@ -232,8 +239,9 @@ inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const T
   }
 
   si->ns = ng;
-  if (!mesh.normals.empty()) {
-    Normal3f ns = mesh.normals[i0] * h.b0 + mesh.normals[i1] * h.b1 + mesh.normals[i2] * h.b2;
+  if (normals || !mesh.normals.empty()) {
+    Normal3f ns = normals ? normals[0] * h.b0 + normals[1] * h.b1 + normals[2] * h.b2
+                          : mesh.normals[i0] * h.b0 + mesh.normals[i1] * h.b1 + mesh.normals[i2] * h.b2;
     Float l2 = length_squared(ns);
     if (l2 > 0 && std::isfinite(l2)) {
       ns = ns / std::sqrt(l2);
@@ -242,6 +250,13 @@ inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const T
       si->ns = ns;
     }
   }
+}
+
+inline void triangle_interaction(const TriangleMesh& mesh, uint32_t tri, const TriangleHit& h,
+                                 SurfaceInteraction* si) {
+  const Point3f p[3] = {mesh.positions[mesh.indices[3 * tri]], mesh.positions[mesh.indices[3 * tri + 1]],
+                        mesh.positions[mesh.indices[3 * tri + 2]]};
+  triangle_interaction(mesh, tri, h, si, p);
 }
 
 }  // namespace prism

@@ -50,6 +50,9 @@ GltfScene<S, Set> load_gltf(const std::string& path, const GltfOptions& opt = {}
   if (!std::isfinite(opt.time)) throw Error(path + ": the animation time must be finite");
   if (!(opt.shutter >= 0) || !std::isfinite(opt.shutter))
     throw Error(path + ": the shutter interval must be finite and non-negative, got " + std::to_string(opt.shutter));
+  if (opt.deformation_keys < 2 || opt.deformation_keys > 1024)
+    throw Error(path + ": GltfOptions::deformation_keys must be from 2 to 1024, got " +
+                std::to_string(opt.deformation_keys));
   try {
     GltfScene<S, Set> out = gltf_detail::Loader<S, Set>(path, opt).load();
     out.scene.set_source(path);

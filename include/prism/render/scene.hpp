@@ -56,6 +56,12 @@ class Scene {
     return uint32_t(m_materials.size() - 1);
   }
   uint32_t add_mesh(TriangleMesh mesh) { return m_accel.add_mesh(std::move(mesh)); }
+  // A mesh whose vertices move during the shutter (deformation blur; see
+  // SceneAccel::add_deforming_mesh). Its instances do not emit: area lights
+  // do not deform.
+  uint32_t add_deforming_mesh(TriangleMesh mesh, VertexMotion motion) {
+    return m_accel.add_deforming_mesh(std::move(mesh), std::move(motion));
+  }
   // An instance of a mesh; with emission, each of its triangles becomes an area light.
   uint32_t add_instance(uint32_t mesh, uint32_t material, const Transform& object_to_world = {},
                         std::optional<AreaEmission> emission = std::nullopt) {
@@ -127,12 +133,15 @@ class Scene {
         throw Error("scene: instance " + std::to_string(i) + ": material index " + std::to_string(m_info[i].material) +
                     " out of range (" + std::to_string(m_materials.size()) + " materials)");
       const Instance& in = m_accel.instances()[i];
-      if (in.kind == Instance::Kind::mesh && !in.object_to_world.invertible())
+      if (in.kind != Instance::Kind::sphere && !in.object_to_world.invertible())
         throw Error("scene: instance " + std::to_string(i) + ": transform is singular");
       if (auto& e = m_info[i].emission) {
         if (!e->radiance.is_finite() || e->radiance.r < 0 || e->radiance.g < 0 || e->radiance.b < 0 ||
             !(e->scale >= 0) || !std::isfinite(e->scale))
           throw Error("scene: instance " + std::to_string(i) + ": emission must be finite and non-negative");
+        if (in.kind == Instance::Kind::deforming_mesh)
+          throw Error("scene: instance " + std::to_string(i) +
+                      ": a deforming mesh cannot emit (area lights do not deform)");
         if (e->back && in.kind == Instance::Kind::sphere)
           throw Error("scene: instance " + std::to_string(i) +
                       ": a sphere light emits outwards or both ways, not from its back (EmittingSide::back)");

@@ -48,6 +48,11 @@ struct BVHBuildOptions {
   // Scenes with moving instances: top-level trees over the motion's time
   // range (scene_accel.hpp); 0 = SceneAccel::kDefaultMotionSegments.
   int motion_segments = 0;
+  // Deforming meshes (accel/deforming_mesh.hpp): BVHs per interval between
+  // two vertex keys, each over the triangles' boxes during its part of the
+  // interval; 0 = chosen from how far the vertices move against the
+  // triangles' sizes.
+  int deformation_slices = 0;
   // Triangle meshes (MeshAccel): extra BVH references from pre-splitting
   // triangles whose box is much larger than they are (accel/presplit.hpp), as
   // a fraction of the triangle count; 0 = off. Only triangles whose box's

@@ -50,10 +50,17 @@ struct GltfOptions {
   // instance with the node's world transforms at both ends as its keys
   // (AnimatedTransform: linear translation and stretch, slerp rotation); a
   // camera node that moves gets the same two keys as GltfCamera::motion
-  // (camera motion blur). Punctual lights stay where they are at `time`;
-  // skinned and morphed meshes are drawn as they are at `time` (no
-  // deformation blur).
+  // (camera motion blur). A skinned or morphing mesh whose animation runs
+  // during the shutter deforms (deformation blur): it is skinned and morphed
+  // at `deformation_keys` evenly spaced times from the shutter's open to its
+  // close, and its vertices move in straight lines between them
+  // (Scene::add_deforming_mesh). Punctual lights stay where they are at
+  // `time`, and so do emissive meshes.
   double shutter = 0;
+  // Vertex keys over the shutter for deformation blur, at least 2 (2: each
+  // vertex moves along the chord from the shutter's open to its close; more
+  // follow a turning limb; docs/motion_blur.md measures the cost).
+  int deformation_keys = 5;
   // Kulla-Conty energy compensation on every material's rough lobes
   // (MetalRoughMaterial::multiple_scattering; docs/microfacets.md). Off by default:
   // glTF's reference viewers render single scattering.
@@ -102,6 +109,7 @@ struct GltfScene {
   size_t emissive_instances = 0;
   size_t moving_instances = 0;   // instances that move during the shutter (GltfOptions::shutter)
   size_t deformed_instances = 0; // instances of skinned or morphed meshes (at GltfOptions::time)
+  size_t deforming_meshes = 0;   // meshes with vertex keys over the shutter (deformation blur)
   size_t images = 0, image_bytes = 0;
   std::vector<std::string> variants;  // KHR_materials_variants: the file's variant names, in order
   std::string variant;               // the variant loaded (GltfOptions::variant); empty: the defaults
@@ -163,8 +171,12 @@ class Loader {
     uint32_t material;
     int gltf_material;
   };
-  // With a deformation, the parts are the node's own: built each time.
-  const std::vector<Part>& mesh_parts(int m, const Deformation* deform = nullptr) {
+  // With a deformation, the parts are the node's own: built each time. With
+  // several (`keys`: deformations at evenly spaced times over the shutter),
+  // they are deforming meshes with those vertex keys.
+  const std::vector<Part>& mesh_parts(int m, const Deformation* deform = nullptr,
+                                      const std::vector<Deformation>& keys = {}) {
+    if (!keys.empty()) deform = &keys[0];
     auto found = m_mesh_cache.find(m);
     if (!deform && found != m_mesh_cache.end()) return found->second;
     std::vector<Part> parts;
@@ -189,6 +201,9 @@ class Loader {
       };
       auto key = std::make_tuple(attr("POSITION"), attr("NORMAL"), attr("TEXCOORD_0"), attr("TEXCOORD_1"),
                                  attr("TANGENT"), attr("COLOR_0"), prim.indices, prim.mode);
+      if (prim.material != -1)
+        m_doc.check_index(prim.material, m_doc.model.materials.size(), where + ".material", "material");
+      int mat = variant_material(prim, where);
       uint32_t mesh_id;
       auto shared = m_prim_cache.find(key);
       if (!deform && shared != m_prim_cache.end()) {
@@ -196,16 +211,55 @@ class Loader {
       } else {
         TriangleMesh tm = build_primitive(m_doc, prim, where, deform);
         if (tm.triangle_count() == 0) m_doc.fail(where, "has no triangle (too few vertices or indices)");
-        mesh_id = m_out.scene.add_mesh(std::move(tm));
+        if (keys.size() > 1)
+          mesh_id = add_keyed_mesh(std::move(tm), prim, where, keys, m_materials.emission(mat).has_value());
+        else
+          mesh_id = m_out.scene.add_mesh(std::move(tm));
         if (!deform) m_prim_cache.emplace(key, mesh_id);
       }
-      if (prim.material != -1)
-        m_doc.check_index(prim.material, m_doc.model.materials.size(), where + ".material", "material");
-      int mat = variant_material(prim, where);
       parts.push_back({mesh_id, material(mat), mat});
     }
     if (deform) return m_deformed_parts = std::move(parts);
     return m_mesh_cache.emplace(m, std::move(parts)).first->second;
+  }
+
+  // A primitive deformed at each of `keys` (tm: at the first): a deforming
+  // mesh, or a still one when the keys do not differ or it emits (area
+  // lights do not deform: it stays as it is when the shutter opens).
+  uint32_t add_keyed_mesh(TriangleMesh tm, const tinygltf::Primitive& prim, const std::string& where,
+                          const std::vector<Deformation>& keys, bool emits) {
+    if (emits) {
+      if (!m_warned_deforming_emitter)
+        m_doc.warn(where + ": an emissive mesh deforms during the shutter; area lights do not deform: drawn as it is "
+                           "when the shutter opens");
+      m_warned_deforming_emitter = true;
+      return m_out.scene.add_mesh(std::move(tm));
+    }
+    VertexMotion vm;
+    vm.time0 = Float(m_opt.time);
+    vm.time1 = Float(m_opt.time + m_opt.shutter);
+    bool moves = false;
+    Bounds3f box;
+    for (size_t k = 0; k < keys.size(); ++k) {
+      TriangleMesh key = k == 0 ? tm : build_primitive(m_doc, prim, where, &keys[k]);
+      if (key.positions.size() != tm.positions.size())  // the same accessors: cannot happen
+        m_doc.fail(where, "its vertex count changes between deformation keys");
+      moves = moves || key.positions != tm.positions;
+      for (const auto& p : key.positions) box = union_bounds(box, p);
+      vm.positions.push_back(std::move(key.positions));
+      if (!tm.normals.empty()) vm.normals.push_back(std::move(key.normals));
+      if (!tm.tangents.empty()) vm.tangents.push_back(std::move(key.tangents));
+    }
+    if (!moves) return m_out.scene.add_mesh(std::move(tm));
+    uint32_t id;
+    try {
+      id = m_out.scene.add_deforming_mesh(std::move(tm), std::move(vm));
+    } catch (const Error& e) {
+      m_doc.fail(where, e.what());
+    }
+    m_bounds_cache.emplace(id, box);
+    ++m_out.deforming_meshes;
+    return id;
   }
 
   // Node n's world transform at `time`, through its parents (the first node
@@ -351,11 +405,13 @@ class Loader {
   void place_mesh(int n, const tinygltf::Node& node, const Matrix4d& world, const Matrix4d& world_end) {
     std::vector<Matrix4d> transforms, transforms_end;
     const Deformation deform = deformation(n, node, m_opt.time);
-    if (deform.any() && m_opt.shutter > 0 && (deform.skins() || m_animation.animates_weights(n)) &&
-        !m_warned_deformation_blur) {
-      m_doc.warn(idx("nodes", n) + ": skinned and morphed meshes are drawn as they are when the shutter opens "
-                                   "(deformation blur is not supported)");
-      m_warned_deformation_blur = true;
+    // Deformation blur: the deformation at each key over the shutter.
+    std::vector<Deformation> keys;
+    if (deform.any() && m_opt.shutter > 0 && (deform.skins() || m_animation.animates_weights(n))) {
+      const int count = m_opt.deformation_keys;
+      keys.push_back(deform);
+      for (int k = 1; k < count; ++k)
+        keys.push_back(deformation(n, node, m_opt.time + m_opt.shutter * double(k) / double(count - 1)));
     }
     if (deform.skins()) {
       // A skinned mesh is placed by its joints alone: the specification
@@ -398,7 +454,7 @@ class Loader {
       transforms.push_back(world);
       transforms_end.push_back(world_end);
     }
-    const auto& parts = mesh_parts(node.mesh, deform.any() ? &deform : nullptr);
+    const auto& parts = mesh_parts(node.mesh, deform.any() ? &deform : nullptr, keys);
     if (deform.any()) m_out.deformed_instances += transforms.size();
     for (size_t i = 0; i < transforms.size(); ++i) {
       const Matrix4d& m = transforms[i];
@@ -541,7 +597,7 @@ class Loader {
   Document m_doc;
   GltfOptions m_opt;
   bool m_warned_moving_emitter = false;
-  bool m_warned_deformation_blur = false;
+  bool m_warned_deforming_emitter = false;
   std::vector<int> m_parent;            // node_world: each node's parent, -1 for roots
   std::vector<Part> m_deformed_parts;   // mesh_parts with a deformation: the last node's
   PendingImages m_pending;
