@@ -31,7 +31,7 @@ struct Blob {
   VertexMotion motion;
 };
 
-Blob random_blob(PCG32& rng, int triangles, int keys, Float wander) {
+Blob random_blob(PCG32& rng, int triangles, int keys, Float wander, Float time0 = 0.1f, Float time1 = 0.9f) {
   Blob b;
   for (int i = 0; i < triangles; ++i) {
     Point3f c = Point3f{0, 0, 0} + random_unit(rng) * Float(0.8);
@@ -41,8 +41,8 @@ Blob random_blob(PCG32& rng, int triangles, int keys, Float wander) {
       b.mesh.indices.push_back(uint32_t(b.mesh.positions.size() - 1));
     }
   }
-  b.motion.time0 = 0.1f;
-  b.motion.time1 = 0.9f;
+  b.motion.time0 = time0;
+  b.motion.time1 = time1;
   for (int k = 0; k < keys; ++k) {
     std::vector<Point3f> p = b.mesh.positions;
     std::vector<Normal3f> n = b.mesh.normals;
@@ -62,18 +62,20 @@ struct World {
   std::vector<Blob> blobs;  // per mesh
 };
 
-World make_world(int keys) {
+// The two meshes deform over different intervals: [0.1, 0.45] and [0.5, 0.95].
+// Without `moving`, no instance moves: only the meshes deform.
+World make_world(int keys, int motion_segments = 0, int slices = 0, bool moving = true) {
   PCG32 rng(uint64_t(keys), 17);
   World w;
   for (int m = 0; m < 2; ++m) {
-    w.blobs.push_back(random_blob(rng, 50, keys, 0.3f));
+    w.blobs.push_back(random_blob(rng, 50, keys, 0.3f, m == 0 ? 0.1f : 0.5f, m == 0 ? 0.45f : 0.95f));
     w.accel.add_deforming_mesh(w.blobs.back().mesh, w.blobs.back().motion);
   }
   w.accel.add_mesh_instance(0);  // identity
   for (int i = 0; i < 12; ++i) {
     Vector3f p{uniform(rng, -5, 5), uniform(rng, -5, 5), uniform(rng, -5, 5)};
     TransformKey k0 = TransformKey::trs(p, Quaternion::from_axis_angle(random_unit(rng), uniform(rng, 0, 6)));
-    if (i % 2 == 0) {
+    if (i % 2 == 0 || !moving) {
       w.accel.add_mesh_instance(uint32_t(i % 3 == 0), AnimatedTransform(k0, k0, 0, 1).at(0));
     } else {  // deforming and moving
       TransformKey k1 = k0;
@@ -81,7 +83,10 @@ World make_world(int keys) {
       w.accel.add_mesh_instance(uint32_t(i % 3 == 0), AnimatedTransform(k0, k1, 0, 1));
     }
   }
-  w.accel.build();
+  BVHBuildOptions opt;
+  opt.motion_segments = motion_segments;
+  opt.deformation_slices = slices;
+  w.accel.build(opt);
   return w;
 }
 
@@ -125,16 +130,31 @@ std::optional<Hit> brute_force(const World& w, const Ray& ray) {
 
 }  // namespace
 
+// Configurations: key counts; one top-level tree with nothing but the
+// meshes moving (their different intervals must both be covered by it);
+// eleven slices per interval (slice ends that f * slices rounds across).
 TEST_CASE("deforming meshes: closest hit equals brute force at every time and key count", "[accel][motion][deform]") {
-  for (int keys : {2, 3, 5}) {
-    World w = make_world(keys);
+  struct Config {
+    int keys, segments, slices;
+    bool moving;
+  };
+  for (Config c : {Config{2, 0, 0, true}, Config{3, 0, 0, true}, Config{5, 0, 0, true}, Config{3, 1, 0, false},
+                   Config{3, 3, 11, true}}) {
+    const int keys = c.keys;
+    World w = make_world(keys, c.segments, c.slices, c.moving);
     REQUIRE(w.accel.has_motion());
     REQUIRE(w.accel.instances()[0].kind == Instance::Kind::deforming_mesh);
-    PCG32 rng(uint64_t(keys), 5);
+    PCG32 rng(uint64_t(keys + 10 * c.segments + 100 * c.slices), 5);
+    // Times on the boundaries of top-level segments, keys and slices, and
+    // an ulp either side of them.
+    std::vector<Float> edges;
+    for (Float e : {0.f, 0.1f, 0.25f, 0.275f, 0.45f, 0.5f, 0.725f, 0.75f, 0.95f, 1.f, 0.1f + 0.35f / 11, 0.5f + 0.45f * 6 / 11})
+      for (Float t : {std::nextafter(e, -1.f), e, std::nextafter(e, 2.f)}) edges.push_back(t);
     int hits = 0, mismatches = 0, occl_mismatches = 0;
     for (int k = 0; k < 3000; ++k) {
       Ray ray;
-      ray.time = uniform(rng, -0.1f, 1.1f);  // outside [time0, time1] clamps
+      // outside [time0, time1] clamps
+      ray.time = k % 4 == 3 ? edges[rng.next_u32() % edges.size()] : uniform(rng, -0.1f, 1.1f);
       ray.o = Point3f{uniform(rng, -7, 7), uniform(rng, -7, 7), uniform(rng, -7, 7)};
       if (k % 2 == 0) {
         // Aim at a point of a random triangle where it is at this time.
@@ -157,10 +177,55 @@ TEST_CASE("deforming meshes: closest hit equals brute force at every time and ke
       Float t_shadow = expect ? expect->t * Float(1.5) : Float(100);
       if (w.accel.occluded(ray, t_shadow) != expect.has_value()) ++occl_mismatches;
     }
-    INFO(keys << " keys: " << hits << " hits of 3000 rays");
+    INFO(keys << " keys, " << c.segments << " top-level segments, " << c.slices << " slices: " << hits
+              << " hits of 3000 rays");
     CHECK(hits > 1200);
     CHECK(mismatches == 0);
     CHECK(occl_mismatches == 0);
+  }
+}
+
+// Two triangles that travel far, over different intervals: B slides 5
+// units along y over [0.5, 0.95], then A 5 units along x over [0.1, 0.45]
+// (added in that order; B starts 10 units from A). At every time a ray straight at each one's
+// centroid meets it, whatever the number of top-level trees.
+TEST_CASE("meshes deforming over different intervals are each found over their own", "[accel][motion][deform]") {
+  for (int segments : {0, 1, 3}) {
+    SceneAccel accel;
+    TriangleMesh tri;
+    tri.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    tri.indices = {0, 1, 2};
+    auto keyed = [&](Float t0, Float t1, Vector3f start, Vector3f travel) {
+      VertexMotion m;
+      m.time0 = t0;
+      m.time1 = t1;
+      for (int k = 0; k < 3; ++k) {
+        m.positions.push_back(tri.positions);
+        for (auto& p : m.positions.back()) p += start + travel * (Float(k) / 2);
+      }
+      return m;
+    };
+    // B starts 10 units along x from A: they never overlap.
+    VertexMotion mb = keyed(0.5f, 0.95f, {10, 0, 0}, {0, 5, 0}), ma = keyed(0.1f, 0.45f, {0, 0, 0}, {5, 0, 0});
+    accel.add_mesh_instance(accel.add_deforming_mesh(tri, mb));
+    accel.add_mesh_instance(accel.add_deforming_mesh(tri, ma));
+    BVHBuildOptions opt;
+    opt.motion_segments = segments;
+    accel.build(opt);
+    int missed = 0;
+    for (int i = 0; i <= 100; ++i) {
+      const Float time = Float(i) / 100;
+      for (int m = 0; m < 2; ++m) {
+        const VertexMotion& vm = m == 0 ? mb : ma;
+        Float u = std::clamp((time - vm.time0) / (vm.time1 - vm.time0), Float(0), Float(1));
+        Vector3f travel = m == 0 ? Vector3f(0, 5, 0) : Vector3f(5, 0, 0);
+        Point3f c = Point3f(Float(1) / 3, Float(1) / 3, 0) + Vector3f(m == 0 ? 10 : 0, 0, 0) + travel * u;
+        auto h = accel.intersect(Ray{c - Vector3f(0, 0, 5), {0, 0, 1}, time});
+        if (!h || h->instance != uint32_t(m)) ++missed;
+      }
+    }
+    INFO(segments << " top-level trees");
+    CHECK(missed == 0);
   }
 }
 

@@ -230,6 +230,12 @@ TEST_CASE("a morphing glTF mesh is met where the still file has it at every time
       ++compared;
     }
   }
+  // Weights that are all 0 when the shutter opens (at time 0) but move
+  // during it still deform the mesh.
+  GltfOptions from_rest;
+  from_rest.time = 0;
+  from_rest.shutter = 0.1;
+  CHECK(load_gltf<RGB>(path, from_rest).deforming_meshes == 1);
   INFO("largest distance difference " << worst << " over " << compared << " rays; largest motion " << change);
   // 1e-4: distances of about 2-4 (ulp 2.4e-7-4.8e-7) through the blend, the
   // float morph and the hit point, a few tens of roundings: ≲ 2e-5

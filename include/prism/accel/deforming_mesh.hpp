@@ -14,6 +14,12 @@
 // follow a curved motion (a turning limb) more closely and keep each
 // segment's boxes tight; a motion that is linear over the shutter needs two.
 // docs/motion_blur.md measures the cost against a still mesh.
+//
+// The blend is one rounding formula, a + f (b - a), in the traversal and in
+// the hit's interaction. A build that lets the compiler fuse multiplies and
+// adds (-ffp-contract=fast, GCC's default with -march=native) may fuse one
+// and not the other: the hit point then differs from the traversal's by an
+// ulp or so, well inside its error bound.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -290,8 +296,15 @@ class DeformingMeshAccel {
   }
 
   VertexMotion::Segment segment(Float time) const { return VertexMotion::segment(time, m_time0, m_time1, m_keys); }
-  // The slice holding fraction f of an interval.
-  size_t slice_of(Float f) const { return std::min(size_t(f * Float(m_slices)), size_t(m_slices - 1)); }
+  // The slice holding fraction f of an interval: the one whose ends, as the
+  // build computed them, enclose f (f * slices may round across an end).
+  size_t slice_of(Float f) const {
+    const size_t m = size_t(m_slices);
+    size_t j = std::min(size_t(f * Float(m_slices)), m - 1);
+    if (j > 0 && f < Float(j) / Float(m_slices)) --j;
+    if (j + 1 < m && f >= Float(j + 1) / Float(m_slices)) ++j;
+    return j;
+  }
   // Every slice in time order: index k * slices + slice.
   size_t tree_index(Float time) const {
     auto [k, f] = segment(time);

@@ -16,6 +16,7 @@
 // its instances may be transformed and move too. The top level's boxes
 // enclose it over each segment's time interval.
 #pragma once
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -395,28 +396,34 @@ class SceneAccel {
         m_time1 = std::max(m_time1, m.end_time());
       }
     }
-    // Deforming meshes: their instances' boxes over each interval. (One
-    // segment per top-level tree when only meshes deform: their own
-    // segments already follow the keys.)
+    // Deforming meshes: the time range covers their keys too.
+    bool deforms = false;
     for (const Instance& in : m_instances)
       if (in.kind == Instance::Kind::deforming_mesh) {
         const VertexMotion& vm = m_vertex_motions[size_t(m_deform_of[in.geometry])];
-        if (m_motions.empty() && segments == 1) {
+        if (!deforms && m_motions.empty()) {
           segments = std::clamp(motion_segments > 0 ? motion_segments : kDefaultMotionSegments, 1, 1024);
           m_time0 = infinity;
           m_time1 = -infinity;
         }
+        deforms = true;
         m_time0 = std::min(m_time0, vm.time0);
         m_time1 = std::max(m_time1, vm.time1);
       }
+    // top_for() finds a ray's segment with other roundings than the
+    // segments' ends below: each segment's boxes cover a few ulps more
+    // time on either side, so a ray at a time on a boundary is inside them.
+    const Float time_pad = 8 * std::numeric_limits<Float>::epsilon() *
+                           std::max({std::abs(m_time0), std::abs(m_time1), m_time1 - m_time0});
     BVHBuildOptions top = opt;
     top.max_leaf_size = 1;
     m_tops.clear();
     m_bounds = Bounds3f{};
     std::vector<Bounds3f> b(m_instances.size());
     for (int k = 0; k < segments; ++k) {
-      Float ta = m_time0 + (m_time1 - m_time0) * Float(k) / Float(segments);
-      Float tb = k + 1 == segments ? m_time1 : m_time0 + (m_time1 - m_time0) * Float(k + 1) / Float(segments);
+      Float ta = m_time0 + (m_time1 - m_time0) * Float(k) / Float(segments) - time_pad;
+      Float tb = (k + 1 == segments ? m_time1 : m_time0 + (m_time1 - m_time0) * Float(k + 1) / Float(segments)) +
+                 time_pad;
       for (size_t i = 0; i < m_instances.size(); ++i) {
         const Instance& in = m_instances[i];
         if (in.kind == Instance::Kind::sphere) {

@@ -238,6 +238,13 @@ class Loader {
     VertexMotion vm;
     vm.time0 = Float(m_opt.time);
     vm.time1 = Float(m_opt.time + m_opt.shutter);
+    if (!(vm.time1 > vm.time0)) {  // a shutter shorter than a float's step at this time
+      if (!m_warned_short_shutter)
+        m_doc.warn(where + ": the shutter is too short to tell its ends apart at this time: drawn as it is when it "
+                           "opens");
+      m_warned_short_shutter = true;
+      return m_out.scene.add_mesh(std::move(tm));
+    }
     bool moves = false;
     Bounds3f box;
     for (size_t k = 0; k < keys.size(); ++k) {
@@ -405,9 +412,10 @@ class Loader {
   void place_mesh(int n, const tinygltf::Node& node, const Matrix4d& world, const Matrix4d& world_end) {
     std::vector<Matrix4d> transforms, transforms_end;
     const Deformation deform = deformation(n, node, m_opt.time);
-    // Deformation blur: the deformation at each key over the shutter.
+    // Deformation blur: the deformation at each key over the shutter (also
+    // for morph weights that are all 0 when the shutter opens).
     std::vector<Deformation> keys;
-    if (deform.any() && m_opt.shutter > 0 && (deform.skins() || m_animation.animates_weights(n))) {
+    if (m_opt.shutter > 0 && (deform.skins() || m_animation.animates_weights(n))) {
       const int count = m_opt.deformation_keys;
       keys.push_back(deform);
       for (int k = 1; k < count; ++k)
@@ -455,7 +463,7 @@ class Loader {
       transforms_end.push_back(world_end);
     }
     const auto& parts = mesh_parts(node.mesh, deform.any() ? &deform : nullptr, keys);
-    if (deform.any()) m_out.deformed_instances += transforms.size();
+    if (deform.any() || !keys.empty()) m_out.deformed_instances += transforms.size();
     for (size_t i = 0; i < transforms.size(); ++i) {
       const Matrix4d& m = transforms[i];
       for (double v : m.m)
@@ -598,6 +606,7 @@ class Loader {
   GltfOptions m_opt;
   bool m_warned_moving_emitter = false;
   bool m_warned_deforming_emitter = false;
+  bool m_warned_short_shutter = false;
   std::vector<int> m_parent;            // node_world: each node's parent, -1 for roots
   std::vector<Part> m_deformed_parts;   // mesh_parts with a deformation: the last node's
   PendingImages m_pending;
