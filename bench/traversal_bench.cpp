@@ -807,7 +807,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     BVHBuildOptions bo;
     bo.threads = th;
     bo.split_budget = opt.split_budget;
-    bo.spatial_splits = opt.spatial_splits;
+    bo.spatial_splits = opt.spatial_splits ? spatial_split_builder : nullptr;
     for (int r = 0; r < std::max(3, opt.reps); ++r) {
       auto build_prism = [&] {
         double t0 = now_seconds();
@@ -971,7 +971,7 @@ void run_case(const std::string& case_name, const TriangleMesh& mesh, Vector3f v
     rotated.add_mesh_instance(rotated.add_mesh(mesh), xf);
     BVHBuildOptions bo;
     bo.split_budget = opt.split_budget;
-    bo.spatial_splits = opt.spatial_splits;
+    bo.spatial_splits = opt.spatial_splits ? spatial_split_builder : nullptr;
     rotated.build(bo);
     std::vector<BenchRay> world = incoherent;
     for (BenchRay& r : world) {
@@ -1114,7 +1114,7 @@ int main(int argc, char** argv) {
   // (BVHBuildOptions::spatial_splits) against Embree's high quality build.
   if (opt.runs("slivers_sbvh")) {
     Options sbvh = opt;
-    sbvh.spatial_splits = true;
+    sbvh.spatial_splits = spatial_split_builder;
     run_case("slivers_sbvh", make_sliver_scene(), {0.3f, 0.8f, 0.5f}, sbvh, rows, {}, RTC_BUILD_QUALITY_HIGH);
   }
   // Edge rays into the tube: towards a point at least 1 inside either end and

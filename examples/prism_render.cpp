@@ -315,7 +315,7 @@ int run_default(const Job& job, const char* model, const prism::CornellBoxOption
     scene.set_light_selection(light_selection(job.light_sampler));
     BVHBuildOptions bo;
     bo.split_budget = job.split_budget;
-    bo.spatial_splits = job.spatial_splits;
+    bo.spatial_splits = job.spatial_splits ? prism::spatial_split_builder : nullptr;
     scene.build(bo);
     DefaultSceneDesc desc;
     desc.lens_radius = job.aperture;
@@ -353,7 +353,7 @@ int run_gltf(Job job, const char* model, prism::GltfScene<S, Set>& g) {
     g.scene.set_light_selection(light_selection(job.light_sampler));
     BVHBuildOptions bo;
     bo.split_budget = job.split_budget;
-    bo.spatial_splits = job.spatial_splits;
+    bo.spatial_splits = job.spatial_splits ? prism::spatial_split_builder : nullptr;
     g.scene.build(bo);
   } catch (const Error& e) {
     return fail(e.what());

@@ -110,7 +110,7 @@ class DeformingMeshAccel {
     motion.validate(mesh.positions.size());
     BVHBuildOptions opt = options;
     opt.leaf_block = W;
-    opt.spatial_splits = false;
+    opt.spatial_splits = nullptr;
     const size_t n = mesh.triangle_count();
     const uint32_t* idx = mesh.indices.data();
     m_slices = opt.deformation_slices > 0 ? std::min(opt.deformation_slices, 64) : auto_slices(mesh, motion);

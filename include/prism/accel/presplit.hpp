@@ -284,15 +284,6 @@ struct SpatialBVH {
   std::vector<Bounds3f> ref_box;
   std::vector<uint32_t> ref_tri;
 };
-// The spatial-split builder for MeshAccel: n triangles from positions and
-// indices, options, pre-split references to start from (or none). Null
-// until accel/sbvh.hpp is included somewhere in the program.
-using SpatialBuildFn = SpatialBVH (*)(size_t, const Point3f*, const uint32_t*, const BVHBuildOptions&,
-                                      const SplitReferences*);
-inline SpatialBuildFn& spatial_build_hook() {
-  static SpatialBuildFn fn = nullptr;
-  return fn;
-}
 
 // Throws prism::Error unless the budget is finite and >= 0 and the threshold
 // finite and >= 1 (checked whether or not splitting is on).

@@ -33,12 +33,11 @@
 // where a scene is traced long enough: docs/performance.md has the
 // measurements.
 //
-// MeshAccel reaches the builder through detail::spatial_build_hook(), which
-// this header sets, so a program that asks for spatial splits includes it.
-// Neither scene_accel.hpp nor prism/prism.hpp does: every translation unit
-// that builds a scene would compile the builder, about 15% more compile time
-// for a feature that is off by default. Without it, spatial_splits is
-// refused with an error that names this header.
+// A program asks for it by name: BVHBuildOptions::spatial_splits =
+// prism::spatial_split_builder, declared here. Neither scene_accel.hpp nor
+// prism/prism.hpp includes this header: every translation unit that builds
+// a scene would compile the builder, about 15% more compile time for a
+// feature that is off by default.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -574,13 +573,15 @@ SpatialBVH build_spatial_bvh(size_t n, Vertices&& vertices, const BVHBuildOption
   return b.build(n, start, keep_reference_boxes);
 }
 
-// MeshAccel's entry (spatial_build_hook): a mesh's positions and indices.
+// MeshAccel's entry: a mesh's positions and indices.
 inline SpatialBVH build_spatial_mesh_bvh(size_t n, const Point3f* p, const uint32_t* idx, const BVHBuildOptions& opt,
                                          const SplitReferences* start) {
   return build_spatial_bvh(n, mesh_vertices(p, idx), opt, start);
 }
-// Set when this header is in the program, before main.
-inline const bool spatial_build_registered = (spatial_build_hook() = &build_spatial_mesh_bvh, true);
 
 }  // namespace detail
+
+// The spatial-split builder, for BVHBuildOptions::spatial_splits.
+inline constexpr detail::SpatialBuildFn spatial_split_builder = &detail::build_spatial_mesh_bvh;
+
 }  // namespace prism

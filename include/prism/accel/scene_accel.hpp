@@ -64,13 +64,8 @@ class MeshAccel {
     const Point3f* p = mesh.positions.data();
     const uint32_t* idx = mesh.indices.data();
     auto vertices = detail::mesh_vertices(p, idx);
-    detail::SpatialBuildFn spatial = nullptr;
-    if (opt.spatial_splits) {
-      detail::check_spatial_alpha(opt.spatial_alpha);
-      spatial = detail::spatial_build_hook();
-      if (!spatial)
-        throw Error("BVHBuildOptions::spatial_splits: include prism/accel/sbvh.hpp, which holds the builder");
-    }
+    const detail::SpatialBuildFn spatial = opt.spatial_splits;
+    if (spatial) detail::check_spatial_alpha(opt.spatial_alpha);
     // Pre-splitting first; with spatial splits the builder then cuts where
     // the SAH asks for it (pre-splitting cuts the worst slivers everywhere,
     // which the builder's greedy choice of planes does not do).

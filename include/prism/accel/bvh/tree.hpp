@@ -73,8 +73,14 @@ struct BVHBuildOptions {
   // the triangle count references on top of pre-splitting's. On
   // traversal_bench's sliver scene the build takes about 5 times as long and
   // rays trace 1.25 to 1.35 times as fast (docs/performance.md). Off by
-  // default.
-  bool spatial_splits = false;
+  // default (null). To turn it on, name the builder, which lives in its own
+  // header (prism/prism.hpp leaves it out: it would add about 15% to the
+  // compile time of every program that builds a scene):
+  //   #include <prism/accel/sbvh.hpp>
+  //   opt.spatial_splits = prism::spatial_split_builder;
+  // A program that asks for spatial splits without the header does not
+  // compile.
+  detail::SpatialBuildFn spatial_splits = nullptr;
   float spatial_alpha = 1e-3f;
   // Keep the binary tree that the wide traversal layout is derived from
   // (BVH::nodes(), for tests and inspection). Otherwise it is freed once the
